@@ -1,0 +1,45 @@
+"""Process-wide JAX/XLA settings the project needs on every machine.
+
+On small CPU machines a jitted `jax.vmap(mjx.step)` over 64 or more environments hangs for
+ever inside `block_until_ready` unless XLA's concurrency-optimised CPU scheduler is off.
+The flag is read when JAX creates its CPU backend, so it is appended to `XLA_FLAGS` at
+import time; it has no effect on GPU backends.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+CPU_SCHEDULER_FLAG = "--xla_cpu_enable_concurrency_optimized_scheduler=false"
+
+
+def configure() -> None:
+    """Add the CPU scheduler flag to `XLA_FLAGS` unless the user set that option already."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    if "xla_cpu_enable_concurrency_optimized_scheduler" not in flags:
+        os.environ["XLA_FLAGS"] = f"{flags} {CPU_SCHEDULER_FLAG}".strip()
+    if _cpu_backend_started():
+        print(
+            "mjx_cascade: JAX's CPU backend started before mjx_cascade was imported; "
+            f"if batched CPU runs hang, set XLA_FLAGS={CPU_SCHEDULER_FLAG}",
+            file=sys.stderr,
+        )
+
+
+def _cpu_backend_started() -> bool:
+    xb = sys.modules.get("jax._src.xla_bridge")
+    return bool(xb is not None and getattr(xb, "_backends", None))
+
+
+def enable_compilation_cache(path: str | None = None) -> None:
+    """Keep compiled XLA programs on disk so a rerun of the same command starts in seconds.
+
+    Uses `JAX_COMPILATION_CACHE_DIR` when set, else `path`, else `~/.cache/mjx_cascade/xla`.
+    """
+    import jax
+
+    target = os.environ.get("JAX_COMPILATION_CACHE_DIR") or path
+    target = target or os.path.join(os.path.expanduser("~"), ".cache", "mjx_cascade", "xla")
+    jax.config.update("jax_compilation_cache_dir", target)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)

@@ -1,0 +1,195 @@
+"""`mjx-cascade`: info, train and eval from the command line.
+
+The command line only parses and validates; every command calls the library functions that
+notebooks and tests call. Bad input ends with one line on stderr and exit status 2, before
+anything is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import mjx_cascade  # noqa: F401  (sets the XLA CPU flag before JAX starts)
+from mjx_cascade import config as config_lib
+from mjx_cascade.config import ConfigError
+
+EXIT_USAGE = 2
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, no usage dump
+        raise ConfigError(message)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        return args.func(args)
+    except ConfigError as e:
+        print(f"mjx-cascade: error: {e}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("mjx-cascade: interrupted; rerun the same command to resume", file=sys.stderr)
+        return 130
+
+
+def build_parser() -> Parser:
+    p = Parser(prog="mjx-cascade", description="RL cascade motion policies for bipedal walking on MJX.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
+
+    info = sub.add_parser("info", help="policy and robot facts, or a checkpoint's")
+    src = info.add_mutually_exclusive_group(required=True)
+    src.add_argument("--robot", choices=config_lib.ROBOTS)
+    src.add_argument("--checkpoint", metavar="DIR")
+    info.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    info.add_argument("--json", action="store_true")
+    info.set_defaults(func=cmd_info)
+
+    train = sub.add_parser("train", help="train a policy with ES; rerun to resume")
+    src = train.add_mutually_exclusive_group(required=True)
+    src.add_argument("--config", metavar="FILE", help="YAML config: `robot` plus overrides of its settings")
+    src.add_argument("--robot", choices=config_lib.ROBOTS)
+    train.add_argument("--out", required=True, metavar="DIR")
+    train.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    train.add_argument("--generations", type=int)
+    train.add_argument("--population", type=int)
+    train.add_argument("--episode-seconds", type=float)
+    train.add_argument("--seed", type=int)
+    train.add_argument("--checkpoint-every", type=int)
+    train.add_argument("--impl", choices=("auto", "jax", "warp"))
+    train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                       help="any config setting, e.g. --set es.sigma=0.05 (repeatable)")
+    train.add_argument("--no-progress", action="store_true")
+    train.set_defaults(func=cmd_train)
+
+    ev = sub.add_parser("eval", help="run a scenario with a trained policy")
+    ev.add_argument("--robot", required=True, choices=config_lib.ROBOTS)
+    ev.add_argument("--checkpoint", metavar="DIR", help="a run's --out or checkpoints/ (default: the shipped policy)")
+    ev.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    ev.add_argument("--scenario", required=True, metavar="FILE")
+    ev.add_argument("--out", required=True, metavar="DIR")
+    ev.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
+    ev.add_argument("--impl", choices=("auto", "jax", "warp"))
+    ev.add_argument("--json", action="store_true")
+    ev.set_defaults(func=cmd_eval)
+    return p
+
+
+def _emit(payload: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(payload, indent=2))
+    else:
+        for key, value in payload.items():
+            print(f"{key}: {value}")
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from mjx_cascade import checkpoint, policy, robots
+
+    if args.checkpoint:
+        meta, params = checkpoint.read(args.checkpoint)
+        _emit({
+            "robot": meta["robot"],
+            "generation": meta["generation"],
+            "params_sha256": checkpoint.params_sha256(params),
+            "policy_params": int(params.shape[0]),
+            "action_dim": meta["action_dim"],
+            "physics_steps": meta["physics_steps"],
+            "wall_clock_s": meta["wall_clock_s"],
+            "devices": meta["devices"],
+            "device_kind": meta["device_kind"],
+            "impl": meta["impl"],
+        }, args.json)
+        return 0
+    cfg = config_lib.robot_config(args.robot)
+    definition = robots.get(args.robot)
+    model = robots.model_path(definition, args.model) if (args.model or not definition.model_required) else None
+    n = len(definition.learned)
+    actions = policy.action_dim(n, cfg.gait.bezier_order)
+    _emit({
+        "robot": args.robot,
+        "state_dim": 6,
+        "action_dim": actions,
+        "policy_params": policy.param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units),
+        "learned_joints": [f"{role}_{joint}" for role, joint in definition.learned],
+        "bezier_order": cfg.gait.bezier_order,
+        "dt": cfg.physics.dt,
+        "step_time": cfg.gait.step_time,
+        "population": cfg.es.population,
+        "model": str(model) if model else "default",
+    }, args.json)
+    return 0
+
+
+def training_config(args: argparse.Namespace) -> config_lib.Config:
+    cfg = config_lib.load(args.config) if args.config else config_lib.robot_config(args.robot)
+    overrides = {}
+    for flag, key in (("generations", "train.generations"), ("population", "es.population"),
+                      ("episode_seconds", "episode.seconds"), ("seed", "seed"),
+                      ("checkpoint_every", "train.checkpoint_every"), ("impl", "physics.impl")):
+        if getattr(args, flag) is not None:
+            overrides[key] = getattr(args, flag)
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise ConfigError(f"--set needs KEY=VALUE, got {item!r}")
+        overrides[key.strip()] = value
+    return cfg.override(**overrides) if overrides else cfg
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from mjx_cascade import _xla, checkpoint, policy, robots
+
+    cfg = training_config(args)
+    definition = robots.get(cfg.robot)
+    model = robots.model_path(definition, args.model)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} exists and is not a directory")
+    if (out / "checkpoints").is_dir() and checkpoint.is_checkpoint_dir(out / "checkpoints"):
+        meta, _ = checkpoint.read(out)
+        actions = policy.action_dim(len(definition.learned), cfg.gait.bezier_order)
+        params = policy.param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units)
+        checkpoint.check_compatible(meta, cfg.robot, params, actions)
+    from mjx_cascade import physics
+
+    physics.resolve_impl(cfg.physics.impl)  # an impossible --impl is refused before anything is written
+    _xla.enable_compilation_cache()
+    from mjx_cascade import train
+
+    out.mkdir(parents=True, exist_ok=True)
+    summary = train.train(cfg, out, model_path=str(model) if model else None,
+                          progress=None if not args.no_progress else False)
+    print(json.dumps(summary))
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from mjx_cascade import _xla, evaluate, robots, scenario
+
+    scen = scenario.load(args.scenario)
+    if args.dt is not None and args.dt <= 0:
+        raise ConfigError("--dt must be positive")
+    model = robots.model_path(robots.get(args.robot), args.model)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} exists and is not a directory")
+    _xla.enable_compilation_cache()
+    metrics = evaluate.evaluate(args.robot, scen, out, checkpoint_dir=args.checkpoint,
+                                model_path=str(model) if model else None, dt=args.dt, impl=args.impl)
+    if args.json:
+        print(json.dumps(metrics, indent=2))
+    else:
+        verdict = "passed" if metrics["passed"] else "failed"
+        if metrics["fell"]:
+            verdict += f", fell at {metrics['fall_time']:.2f} s"
+        print(f"{args.robot} / {scen.name}: {verdict}; wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,293 @@
+"""The cascade-controlled robot as a pure environment over `mjx.Data` (Fig. 2 and 3).
+
+Every physics step: measure the state, end the walking step on touchdown or time-out (and
+then query the policy once for the next step's Bezier coefficients), evaluate the learned
+trajectories, add the regulators' compensations (eq. 20, 22-26), track with joint PD (eq.
+21) plus the torso torques (Sec. IV-B), advance MJX, and score the state (eq. 13-19, 27).
+
+`reset` and `step` are pure functions of arrays; batch them with `jax.vmap`. The model is
+an argument so that each environment can have its own (domain randomization).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+from jax import Array
+
+from mjx_cascade import bezier, features, gait, pd, regulators, rewards
+from mjx_cascade import policy as policy_lib
+from mjx_cascade.config import Config
+from mjx_cascade.physics import make_data, mjx, put_model, resolve_impl
+from mjx_cascade.robots import scene
+from mjx_cascade.robots.base import Robot
+
+GROUND_FILTER = 0.2  # s, time constant of the terrain slope estimate
+
+
+class ControllerState(struct.PyTreeNode):
+    stance: Array  # gait.LEFT or gait.RIGHT: the foot in stance
+    step_start: Array  # time the current walking step began, s
+    alpha: Array  # [N, M + 1] Bezier coefficients of the learned joints, role coordinates
+    v_sum: Array  # [2] sum of heading-frame pelvis velocities over the current step
+    v_count: Array  # physics steps in the current step
+    v_avg: Array  # [2] average velocity over the last completed step (vbar of the features)
+    v_last: Array  # [2] average over the step before it (v^ls of eq. 25)
+    v_est: Array  # [2] low-passed velocity, the regulators' in-step vbar
+    beta: Array  # [2] PI drift terms (beta_x, beta_y)
+    ground: Array  # [2] terrain (pitch, roll) estimated from the stance foot
+    steps: Array  # walking steps completed
+
+
+class EnvState(struct.PyTreeNode):
+    data: mjx.Data
+    ctrl: ControllerState
+    t: Array  # physics steps scored (taken before the episode was done)
+    done: Array  # stopped scoring (terminated, diverged or out of time)
+    terminated: Array  # ended early by eq. 27
+    diverged: Array  # ended by non-finite or impossible physics
+    ret: Array  # accumulated weighted reward, reward x seconds
+    terms: Array  # [9] accumulated unweighted reward terms, x seconds
+
+
+class Obs(NamedTuple):
+    q: Array  # [2, J] leg motor joint angles, absolute (row 0 left)
+    qd: Array  # [2, J]
+    pos: Array  # [3] pelvis position
+    rpy: Array  # [3] pelvis roll, pitch, yaw
+    omega: Array  # [3] pelvis angular velocity, pelvis frame
+    v_heading: Array  # [2] pelvis horizontal velocity, heading frame
+    feet: Array  # [2, 3] foot positions
+    foot_angles: Array  # [2, 2] foot (pitch, roll) relative to flat, heading frame
+    foot_force: Array  # [2] normal ground reaction forces
+    foot_v: Array  # [2, 3] foot linear velocities
+    foot_w: Array  # [2, 3] foot angular velocities
+    com: Array  # [3] centre of mass
+    ground: Array  # terrain height under the pelvis
+
+
+def quat_to_rpy(q: Array) -> Array:
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    roll = jnp.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = jnp.arcsin(jnp.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = jnp.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return jnp.stack([roll, pitch, yaw])
+
+
+def foot_angles(rot: Array, flat: Array, yaw: Array) -> Array:
+    """(pitch, roll) of a foot relative to its flat standing orientation, in the heading frame."""
+    e = rot @ flat.T  # rotation taking the flat foot to the current one
+    hx = jnp.stack([jnp.cos(yaw), jnp.sin(yaw), 0.0])
+    hy = jnp.stack([-jnp.sin(yaw), jnp.cos(yaw), 0.0])
+    return jnp.stack([jnp.arcsin(jnp.clip(-e[2] @ hx, -1, 1)), jnp.arcsin(jnp.clip(e[2] @ hy, -1, 1))])
+
+
+class Env:
+    """A robot, a config and the compiled MJX model; `reset` and `step` are pure and jittable."""
+
+    def __init__(self, robot: Robot, cfg: Config, pool: tuple[np.ndarray, np.ndarray], batch: int = 1,
+                 terrain: dict | None = None):
+        self.robot, self.cfg = robot, cfg
+        self.terrain = terrain or {"type": "flat"}
+        self.impl = resolve_impl(cfg.physics.impl)
+        self.model = put_model(robot.model, self.impl)
+        self.data_template = make_data(robot.model, self.impl, cfg.physics, batch)
+        self.pool_qpos = jnp.asarray(pool[0], dtype=jnp.float32)
+        self.pool_qvel = jnp.asarray(pool[1], dtype=jnp.float32)
+        self.dt = float(robot.model.opt.timestep)
+        self.episode_steps = int(round(cfg.episode.seconds / self.dt))
+        n, order = robot.num_learned, cfg.gait.bezier_order
+        self.action_dim = policy_lib.action_dim(n, order)
+        self.policy, self.init_params, self.unravel = policy_lib.make(
+            self.action_dim, cfg.policy.hidden_layers, cfg.policy.hidden_units, jax.random.PRNGKey(cfg.seed))
+        scale = cfg.gait.action_scale
+        mid = 0.5 * (robot.learned_low + robot.learned_high)
+        half = 0.5 * (robot.learned_high - robot.learned_low) * scale
+        self.action_low = jnp.asarray(mid - half, jnp.float32)
+        self.action_high = jnp.asarray(mid + half, jnp.float32)
+        self._side = jnp.asarray(np.stack([np.ones_like(robot.mirror), robot.mirror]), jnp.float32)
+        self._weights = rewards.weights(cfg.rewards)
+
+    # ------------------------------------------------------------------ measurement
+    def observe(self, data: mjx.Data) -> Obs:
+        r = self.robot
+        rpy = quat_to_rpy(data.qpos[3:7])
+        feet_rot = data.xmat[r.foot_body]
+        root_com = data.subtree_com[r.pelvis_body]
+        cvel = data.cvel[r.foot_body]
+        foot_v = cvel[:, 3:] + jnp.cross(cvel[:, :3], data.xpos[r.foot_body] - root_com)
+        pos = data.qpos[:3]
+        return Obs(
+            q=data.qpos[r.qpos_adr],
+            qd=data.qvel[r.dof_adr],
+            pos=pos,
+            rpy=rpy,
+            omega=data.qvel[3:6],
+            v_heading=features.to_heading_frame(data.qvel[:2], rpy[2]),
+            feet=data.xpos[r.foot_body],
+            foot_angles=jax.vmap(foot_angles, in_axes=(0, 0, None))(feet_rot, r.foot_flat, rpy[2]),
+            foot_force=data.sensordata[r.foot_force_adr],
+            foot_v=foot_v,
+            foot_w=cvel[:, :3],
+            com=root_com,
+            ground=scene.ground_height(self.terrain, pos[0], pos[1], xp=jnp),
+        )
+
+    # ------------------------------------------------------------------ the motion policy
+    def plan(self, params: Array, q: Array, stance: Array, cmd: Array, v_avg: Array) -> Array:
+        """pi_y o G: Bezier coefficients for a step starting now (impact invariance at `q`)."""
+        r = self.robot
+        q_role = gait.absolute_to_role(q, stance, self.robot.mirror)
+        s = features.features(cmd[:2], v_avg)
+        action = policy_lib.apply_flat(self.policy, self.unravel, params, s)
+        q_start = q_role[r.learned_role, r.learned_joint]
+        return gait.coefficients(action, q_start, self.action_low, self.action_high)
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, params: Array, key: Array, cmd: Array, model: mjx.Model | None = None) -> EnvState:
+        """Start standing, from a random member of the balanced pool, with command `cmd` [vx, vy, yaw]."""
+        model = self.model if model is None else model
+        k_pool, k_side = jax.random.split(key)
+        i = jax.random.randint(k_pool, (), 0, self.pool_qpos.shape[0])
+        data = self.data_template.replace(qpos=self.pool_qpos[i], qvel=self.pool_qvel[i])
+        data = mjx.forward(model, data)
+        obs = self.observe(data)
+        stance = jax.random.bernoulli(k_side).astype(jnp.int32)
+        zeros2 = jnp.zeros(2)
+        ctrl = ControllerState(
+            stance=stance,
+            step_start=data.time,
+            alpha=self.plan(params, obs.q, stance, cmd, zeros2),
+            v_sum=zeros2,
+            v_count=jnp.zeros(()),
+            v_avg=zeros2,
+            v_last=zeros2,
+            v_est=obs.v_heading,
+            beta=zeros2,
+            ground=zeros2,
+            steps=jnp.zeros((), jnp.int32),
+        )
+        false = jnp.zeros((), bool)
+        return EnvState(data=data, ctrl=ctrl, t=jnp.zeros((), jnp.int32), done=false, terminated=false,
+                        diverged=false, ret=jnp.zeros(()), terms=jnp.zeros(len(rewards.TERMS)))
+
+    # ------------------------------------------------------------------ the cascade controller
+    def control(self, params: Array, c: ControllerState, obs: Obs, time: Array, cmd: Array) -> tuple[Array, Array, ControllerState]:
+        """One tick of pi_m o pi_y: `(u [2, J] joint torques, step_ended, new controller state)`."""
+        r, cfg = self.robot, self.cfg
+        g, reg = cfg.gait, cfg.regulators
+        cmd_v, cmd_yaw = cmd[:2], cmd[2]
+
+        # walking-step bookkeeping and the stance switch (Sec. III-C)
+        tau = (time - c.step_start) / g.step_time
+        swing_leg = 1 - c.stance
+        ended = gait.step_ended(tau, obs.foot_force[swing_leg], g.min_phase, g.max_phase, g.grf_threshold)
+        v_sum = c.v_sum + obs.v_heading
+        v_count = c.v_count + 1.0
+        v_step = v_sum / v_count
+        stance = jnp.where(ended, swing_leg, c.stance)
+        v_avg = jnp.where(ended, v_step, c.v_avg)
+        c = c.replace(
+            stance=stance,
+            step_start=jnp.where(ended, time, c.step_start),
+            alpha=jnp.where(ended, self.plan(params, obs.q, stance, cmd, v_avg), c.alpha),
+            v_sum=jnp.where(ended, 0.0, v_sum),
+            v_count=jnp.where(ended, 0.0, v_count),
+            v_avg=v_avg,
+            v_last=jnp.where(ended, c.v_avg, c.v_last),
+            v_est=regulators.velocity_estimate(c.v_est, obs.v_heading, self.dt, reg),
+            beta=jnp.where(ended, regulators.drift_update(c.beta, v_step, cmd_v, reg), c.beta),
+            steps=c.steps + ended.astype(jnp.int32),
+        )
+        tau = jnp.where(ended, 0.0, tau)
+        swing_leg = 1 - stance
+
+        # learned trajectories (eq. 11) and trajectory regulations (eq. 20, 22-26), role coordinates
+        y, yd = bezier.evaluate(c.alpha, tau, g.step_time)
+        ref = jnp.asarray(r.nominal_role, jnp.float32).at[r.learned_role, r.learned_joint].set(y)
+        ref_v = jnp.zeros_like(ref).at[r.learned_role, r.learned_joint].set(yd)
+        place = regulators.swing_placement(c.v_est, cmd_v, c.v_last, c.beta, tau, reg)
+        turn = regulators.heading(obs.rpy[2], cmd_yaw, tau, reg)
+        ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
+        ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
+        ref = ref.at[gait.SWING, r.hip_yaw].add(-jnp.asarray(r.yaw_sign)[swing_leg] * turn)
+        ref = gait.role_to_absolute(ref, stance, r.mirror)
+        ref_v = gait.role_to_absolute(ref_v, stance, r.mirror)
+
+        # foot orientation (Sec. IV-A): one Newton step of decoupled IK per foot, absolute
+        ground = c.ground
+        if reg.slope_estimation:
+            a = self.dt / (GROUND_FILTER + self.dt)
+            ground = ground + a * (obs.foot_angles[stance] - ground)
+        c = c.replace(ground=ground)
+        want = jnp.stack([ground, ground])
+        want = want.at[stance].add(regulators.stance_foot_tilt(c.v_est, cmd_v, reg))
+        toe_step = jnp.einsum("lkc,lc->lk", r.toe_pinv, want - obs.foot_angles) * self._side[:, r.toe]
+        ref = ref.at[:, r.toe].set(obs.q[:, r.toe] + toe_step)
+        ref_v = ref_v.at[:, r.toe].set(0.0)
+
+        # joint PD (eq. 21), then the torso torques replace it on the stance hip roll and pitch
+        u = pd.pd_torque(obs.q, obs.qd, ref, ref_v, r.kp, r.kd)
+        torso = regulators.torso_torque(obs.rpy, obs.omega, reg)
+        hips = jnp.array([r.hip_roll, r.hip_pitch])
+        u = u.at[stance, hips].set(jnp.asarray(r.torso_sign)[stance] * torso * self._side[stance, hips])
+        return u, ended, c
+
+    # ------------------------------------------------------------------ step
+    def step(self, params: Array, state: EnvState, cmd: Array, force: Array | None = None,
+             model: mjx.Model | None = None) -> EnvState:
+        """Advance one physics step under the cascade controller; `force` [3] pushes the pelvis."""
+        r, cfg = self.robot, self.cfg
+        model = self.model if model is None else model
+        data = state.data
+        obs = self.observe(data)
+        u, _, ctrl = self.control(params, state.ctrl, obs, data.time, cmd)
+        motor = pd.motor_command(u, r.gear, r.ctrl_low, r.ctrl_high)
+        data = data.replace(ctrl=data.ctrl.at[r.actuator].set(motor))
+        if force is not None:
+            data = data.replace(xfrc_applied=data.xfrc_applied.at[r.pelvis_body, :3].set(force))
+        data = mjx.step(model, data)
+
+        x = self.reward_inputs(obs, ctrl, u, cmd)
+        terms = rewards.terms(x, cfg.rewards)
+        # a non-finite score means this step started from diverged physics: never count it
+        diverged = rewards.diverged(data.qpos, data.qvel, cfg.termination) | ~jnp.all(jnp.isfinite(terms))
+        terminated = rewards.terminated(x, cfg.termination) | diverged
+        live = ~state.done
+        reward = jnp.where(live & ~diverged, jnp.dot(self._weights, terms) * self.dt, 0.0)
+        penalty = jnp.where(live & terminated, cfg.rewards.termination_penalty, 0.0)
+        t = state.t + live.astype(jnp.int32)
+        return EnvState(
+            data=data,
+            ctrl=ctrl,
+            t=t,
+            done=state.done | terminated | (t >= self.episode_steps),
+            terminated=state.terminated | (live & terminated),
+            diverged=state.diverged | (live & diverged),
+            ret=state.ret + reward - penalty,
+            terms=state.terms + jnp.where(live & ~diverged, terms * self.dt, 0.0),
+        )
+
+    def reward_inputs(self, obs: Obs, c: ControllerState, u: Array, cmd: Array) -> rewards.RewardInputs:
+        r = self.robot
+        stance = c.stance
+        feet_h = features.to_heading_frame(obs.feet[0, :2] - obs.feet[1, :2], obs.rpy[2])
+        return rewards.RewardInputs(
+            v_error=c.v_avg - cmd[:2],
+            height=obs.pos[2] - obs.ground,
+            u_normalized=(u / r.torque_limit).ravel(),
+            com_distance=jnp.linalg.norm(obs.com[:2] - obs.feet[:, :2].mean(axis=0)),
+            rpy_error=jnp.stack([obs.rpy[0], obs.rpy[1], regulators.wrap_angle(obs.rpy[2] - cmd[2])]),
+            omega=obs.omega,
+            feet_distance=jnp.abs(feet_h[1]),
+            stance_v=obs.foot_v[stance],
+            stance_w=obs.foot_w[stance],
+        )
+
+    def fitness(self, state: EnvState) -> Array:
+        """Episode return per second of the full episode: the normalised mean reward (Fig. 6)."""
+        return state.ret / (self.episode_steps * self.dt)

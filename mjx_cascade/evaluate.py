@@ -1,0 +1,148 @@
+"""Run a trained policy through a scenario and judge it from the recorded trajectory alone.
+
+`run` simulates one robot (no domain randomization, no early termination) at the requested
+physics time step and records `t, qpos, qvel, cmd` (plus the applied force and the ground
+height under the pelvis) at least every 10 ms. `tracking_metrics` reads only such a
+trajectory: a fall (pelvis below 0.6 m above the ground or tilted beyond 0.6 rad), and in
+every command segment of 4 s or more, after 2 s of settling, the mean absolute error of the
+1-second moving average of the heading-frame pelvis velocity, and of the heading.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_cascade import checkpoint, plots, policies
+from mjx_cascade.trajectory import heading_velocity, moving_average, tilt
+from mjx_cascade.config import Config, ConfigError, from_dict
+from mjx_cascade.scenario import Scenario
+from mjx_cascade.train import make_env
+
+RECORD_PERIOD = 0.01  # s
+FALL_HEIGHT, FALL_TILT = 0.6, 0.6
+BOUNDS = {"vx": 0.10, "vy": 0.10, "yaw": 0.15}
+
+
+def load_policy(robot: str, checkpoint_dir: str | None) -> tuple[Config, np.ndarray, dict]:
+    """`(training config, flat parameters, metadata)` from a checkpoint, or the shipped policy."""
+    if checkpoint_dir:
+        meta, params = checkpoint.read(checkpoint_dir)
+        if meta.get("robot") != robot:
+            raise ConfigError(f"the checkpoint is for robot {meta.get('robot')!r}, not {robot!r}")
+    else:
+        meta, params = policies.load(robot)
+    return from_dict(meta["config"]), params, meta
+
+
+def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
+    """Simulate `scenario`; returns the trajectory as a dict of NumPy arrays."""
+    cfg = cfg.override(**{"randomization.enabled": False})
+    env = make_env(cfg, batch=1, model_path=model_path, terrain=scenario.terrain)
+    if params.shape[0] != env.init_params.shape[0]:
+        raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
+                          f"{env.init_params.shape[0]}")
+    every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
+    records = int(np.ceil(scenario.duration / (every * env.dt)))
+    times = (np.arange(records * every) + 1) * env.dt  # the time at the end of each physics step
+    cmd = scenario.command_schedule(times - env.dt).reshape(records, every, 3)
+    force = scenario.force_schedule(times - env.dt).reshape(records, every, 3)
+    params = jnp.asarray(params)
+
+    @jax.jit
+    def simulate(cmd, force):
+        state = env.reset(params, jax.random.PRNGKey(0), cmd[0, 0])
+
+        def record(state, inputs):
+            def physics(state, x):
+                return env.step(params, state, x[0], x[1]), None
+
+            state, _ = jax.lax.scan(physics, state, inputs)
+            obs = env.observe(state.data)
+            return state, (state.data.qpos, state.data.qvel, obs.ground, state.ctrl.stance)
+
+        return jax.lax.scan(record, state, (cmd, force))[1]
+
+    qpos, qvel, ground, stance = jax.device_get(simulate(jnp.asarray(cmd, jnp.float32),
+                                                            jnp.asarray(force, jnp.float32)))
+    return {
+        "t": times[every - 1::every],  # exact step counts x dt (MJX's float32 clock drifts)
+        "qpos": np.asarray(qpos),
+        "qvel": np.asarray(qvel),
+        "cmd": cmd[:, -1],
+        "force": force[:, -1],
+        "ground": np.asarray(ground),
+        "stance": np.asarray(stance),
+        "dt": np.float64(env.dt),
+        "joints": np.array([env.robot.model.actuator(int(a)).name for a in env.robot.actuator.ravel()]),
+        "joint_qpos": env.robot.qpos_adr.ravel(),
+        "joint_qvel": env.robot.dof_adr.ravel(),
+    }
+
+
+def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, window: float = 1.0) -> dict:
+    """Fall and per-segment tracking errors, from `t, qpos, qvel, cmd` (and `ground` if present)."""
+    t, qpos, qvel, cmd = (np.asarray(traj[k]) for k in ("t", "qpos", "qvel", "cmd"))
+    ground = np.asarray(traj["ground"]) if "ground" in traj else np.zeros_like(t)
+    height = qpos[:, 2] - ground
+    fallen = (height < FALL_HEIGHT) | (tilt(qpos) > FALL_TILT) | ~np.all(np.isfinite(qpos), axis=1)
+    v, yaw = heading_velocity(qpos, qvel)
+    v_avg = moving_average(v, t, window)
+    change = np.nonzero(np.any(np.diff(cmd, axis=0) != 0, axis=1))[0] + 1
+    bounds = np.concatenate([[0], change, [len(t)]])
+    segments = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        t0 = t[a] - (t[1] - t[0] if a == 0 and len(t) > 1 else 0.0)
+        t1 = t[b - 1]
+        seg = {"t_start": float(max(t0, 0.0)), "t_end": float(t1), "cmd": cmd[a].tolist()}
+        judged = (t >= t0 + settle) & (np.arange(len(t)) >= a) & (np.arange(len(t)) < b)
+        if t1 - t0 >= min_segment - 1e-6 and judged.any():
+            err_yaw = np.angle(np.exp(1j * (yaw[judged] - cmd[judged, 2])))
+            seg.update(
+                vx_mae=float(np.mean(np.abs(v_avg[judged, 0] - cmd[judged, 0]))),
+                vy_mae=float(np.mean(np.abs(v_avg[judged, 1] - cmd[judged, 1]))),
+                yaw_mae=float(np.mean(np.abs(err_yaw))),
+            )
+            seg["within_bounds"] = bool(seg["vx_mae"] <= BOUNDS["vx"] and seg["vy_mae"] <= BOUNDS["vy"]
+                                        and seg["yaw_mae"] <= BOUNDS["yaw"])
+        segments.append(seg)
+    judged_segments = [s for s in segments if "within_bounds" in s]
+    fell = bool(fallen.any())
+    return {
+        "fell": fell,
+        "fall_time": float(t[np.argmax(fallen)]) if fell else None,
+        "segments": segments,
+        "passed": (not fell) and all(s["within_bounds"] for s in judged_segments),
+        "bounds": BOUNDS,
+    }
+
+
+def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: str | None = None,
+             model_path: str | None = None, dt: float | None = None, impl: str | None = None) -> dict:
+    """Run `scenario` and write `trajectory.npz`, `metrics.json` and PNG plots into `out`."""
+    cfg, params, meta = load_policy(robot, checkpoint_dir)
+    overrides = {}
+    if dt is not None:
+        overrides["physics.dt"] = dt
+    if impl is not None:
+        overrides["physics.impl"] = impl
+    cfg = cfg.override(**overrides)
+    traj = run(cfg, params, scenario, model_path)
+    metrics = {
+        "robot": robot,
+        "scenario": scenario.to_dict(),
+        "dt": float(traj["dt"]),
+        "policy": {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params)},
+        **tracking_metrics(traj),
+    }
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out / "trajectory.npz", **traj)
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    plots.tracking(traj, out / "tracking.png", title=f"{robot}: {scenario.name}")
+    plots.limit_cycles(traj, out / "limit_cycles.png", title=f"{robot}: {scenario.name}")
+    return metrics

@@ -1,0 +1,83 @@
+"""The feedback regulator policy pi_m of Sec. IV: trajectory compensations and torso torques.
+
+Every function works on small arrays and a `RegulatorConfig`; the robot supplies the
+kinematic signs (derived from its model, `robots/base.py`) that turn "move the swing foot
+forward / outward" or "pitch the pelvis back" into joint-space signs. This replaces the
+paper's hand-set S_y and S_theta (eq. 24 and Sec. IV-B) for any leg geometry.
+
+Velocities are in the heading frame. `v_est` is the in-step velocity estimate, `v_des` the
+command and `v_last` the average velocity of the previous step (v^ls in eq. 25).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+from jax import Array
+
+from mjx_cascade.config import RegulatorConfig
+
+
+def wrap_angle(a: Array) -> Array:
+    """Angle in (-pi, pi]."""
+    return jnp.arctan2(jnp.sin(a), jnp.cos(a))
+
+
+def blend(tau: Array, cfg: RegulatorConfig) -> Array:
+    """Phase smoothing of the swing compensations: 0 at the step start, 1 after `blend_phase`."""
+    return jnp.clip(tau / cfg.blend_phase, 0.0, 1.0)
+
+
+def swing_placement(v_est: Array, v_des: Array, v_last: Array, beta: Array, tau: Array, cfg: RegulatorConfig) -> Array:
+    """Eq. 23-26, rows 1-2: how far to move the swing foot `[forward, leftward]`, in hip radians.
+
+    delta_hp = K_php (v_x - v_x^d) + K_dhp (v_x - v_x^ls) + beta_x
+    delta_hr = K_phr (v_y - v_y^d) + K_dhr (v_y - v_y^ls) + beta_y
+    Positive moves the foot in the direction of the excess velocity (Raibert's foot placement).
+    The printed P matrix repeats K_dhr in row 2; K_dhp (Table 7) is the evident intent. The
+    robot multiplies each component by the sign of d(foot position)/d(joint angle).
+    """
+    e_des = v_est - v_des
+    e_last = v_est - v_last
+    forward = cfg.k_php * e_des[0] + cfg.k_dhp * e_last[0] + beta[0]
+    lateral = cfg.k_phr * e_des[1] + cfg.k_dhr * e_last[1] + beta[1]
+    return blend(tau, cfg) * jnp.stack([forward, lateral])
+
+
+def heading(yaw: Array, yaw_des: Array, tau: Array, cfg: RegulatorConfig) -> Array:
+    """Eq. 24 row 3: swing hip yaw offset, in the direction that turns the pelvis back to `yaw_des`.
+
+    Returned as "pelvis yaw change over the next stance" (negative of the error); the robot
+    converts it with the sign of d(pelvis yaw)/d(stance hip yaw).
+    """
+    return -cfg.k_heading * blend(tau, cfg) * wrap_angle(yaw - yaw_des)
+
+
+def drift_update(beta: Array, v_step: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
+    """The PI terms beta_x, beta_y: integrate each step's average velocity error, bounded."""
+    return jnp.clip(beta + cfg.k_i_drift * (v_step - v_des), -cfg.drift_limit, cfg.drift_limit)
+
+
+def velocity_estimate(v_filtered: Array, v_now: Array, dt: float, cfg: RegulatorConfig) -> Array:
+    """First-order low-pass of the pelvis velocity, the in-step vbar of eq. 25."""
+    a = dt / (cfg.velocity_filter + dt)
+    return v_filtered + a * (v_now - v_filtered)
+
+
+def stance_foot_tilt(v_est: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
+    """Eq. 24 rows 6-7: stance foot `[pitch, roll]` offsets from the velocity error (Digit)."""
+    e = v_est - v_des
+    return jnp.stack([cfg.k_ptp * e[0], cfg.k_ptr * e[1]])
+
+
+def torso_torque(rpy: Array, rate: Array, cfg: RegulatorConfig) -> Array:
+    """Sec. IV-B: the corrective torque `[about x, about y]` the stance hip must put on the pelvis.
+
+    -[K_p_psi q_psi + K_d_psi dq_psi,  K_p_theta q_theta + K_d_theta dq_theta] for an
+    upright torso (desired roll and pitch zero); the robot turns it into stance hip roll and
+    pitch joint torques through the joint axes (the reaction of a joint torque on the pelvis).
+    Works on NumPy arrays too (the standing controller runs it outside JAX).
+    """
+    kp = np.array([cfg.k_p_roll, cfg.k_p_pitch], dtype=np.float32)
+    kd = np.array([cfg.k_d_roll, cfg.k_d_pitch], dtype=np.float32)
+    return -(kp * rpy[:2] + kd * rate[:2])

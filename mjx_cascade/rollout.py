@@ -1,0 +1,70 @@
+"""Episodes: sample a command and a model, start standing, run the controller, score it.
+
+Episodes run in chunks of `steps_per_check` physics steps inside a `lax.while_loop` that
+stops when every episode of the batch is done, so generations whose members all fall early
+cost only as long as their longest survivor.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+from jax import Array
+
+from mjx_cascade import randomization
+from mjx_cascade.config import EpisodeConfig
+from mjx_cascade.env import Env, EnvState
+
+
+class EpisodeResult(NamedTuple):
+    fitness: Array  # normalised return (env.fitness)
+    steps: Array  # physics steps survived
+    walking_steps: Array  # stance switches
+    terminated: Array
+    diverged: Array
+    terms: Array  # [9] unweighted reward terms integrated over the episode
+
+
+def sample_command(key: Array, cfg: EpisodeConfig) -> Array:
+    """[vx, vy, yaw]: velocities in the heading frame, heading relative to the start (uniform)."""
+    lo = jnp.array([cfg.vx[0], cfg.vy[0], cfg.yaw[0]])
+    hi = jnp.array([cfg.vx[1], cfg.vy[1], cfg.yaw[1]])
+    return jax.random.uniform(key, (3,), minval=lo, maxval=hi)
+
+
+def run_episodes(env: Env, params: Array, keys: Array) -> EpisodeResult:
+    """Training episodes of a batch of flat policy vectors `params [B, D]`, one key each.
+
+    The loop over time is written at the batch level (a `while_loop` around vmapped chunks)
+    rather than as a vmapped per-episode loop: JAX's batching of a `while_loop` selects the
+    whole carry element by element, which MJX's warp data (contact buffers shared by all
+    environments) does not allow.
+    """
+    cfg = env.cfg
+    k_model, k_cmd, k_reset = jax.vmap(lambda k: jax.random.split(k, 3))(keys).transpose(1, 0, 2)
+    if cfg.randomization.enabled:
+        model = randomization.randomize(env.model, k_model, cfg.randomization)
+        model_axes = randomization.in_axes(env.model)
+    else:
+        model, model_axes = env.model, None
+    cmd = jax.vmap(lambda k: sample_command(k, cfg.episode))(k_cmd)
+    state = jax.vmap(env.reset, in_axes=(0, 0, 0, model_axes))(params, k_reset, cmd, model)
+    step = jax.vmap(lambda p, s, c, m: env.step(p, s, c, model=m), in_axes=(0, 0, 0, model_axes))
+
+    def chunk(s: EnvState) -> EnvState:
+        def body(s, _):
+            return step(params, s, cmd, model), None
+
+        return jax.lax.scan(body, s, None, length=cfg.episode.steps_per_check)[0]
+
+    state = jax.lax.while_loop(lambda s: ~jnp.all(s.done), chunk, state)
+    return EpisodeResult(
+        fitness=jax.vmap(env.fitness)(state),
+        steps=state.t,
+        walking_steps=state.ctrl.steps,
+        terminated=state.terminated,
+        diverged=state.diverged,
+        terms=state.terms,
+    )

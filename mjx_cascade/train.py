@@ -1,0 +1,214 @@
+"""Training: ES over MJX episodes, several generations per jitted call, checkpointed and resumable.
+
+One generation (sample the antithetic population, run every member's episode in one
+vmapped call, rank, optax step, decays) is a pure function of the ES state. `lax.scan` runs
+up to `generations_per_call` of them per call, the last ones skipped by `lax.cond` when
+fewer are due, so every call reuses one compiled program. The population axis is sharded
+over every local device. The host only writes metrics and checkpoints between calls.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import NamedSharding, PartitionSpec
+
+from mjx_cascade import checkpoint, es, robots, standing
+from mjx_cascade.config import Config, ConfigError, to_dict
+from mjx_cascade.env import Env
+from mjx_cascade.rollout import run_episodes
+
+METRICS = "metrics.jsonl"
+
+
+@dataclasses.dataclass
+class Trainer:
+    cfg: Config
+    env: Env
+    run: Callable  # (ESState, n_active) -> (ESState, metrics [L])
+    state: es.ESState
+    devices: int
+
+    @property
+    def num_params(self) -> int:
+        return int(self.state.mean.shape[0])
+
+
+def make_env(cfg: Config, batch: int, model_path: str | None = None, terrain: dict | None = None) -> Env:
+    robot = robots.build(robots.get(cfg.robot), cfg, model_path, terrain)
+    pool = standing.balanced_pool(robot, cfg, seed=cfg.seed)
+    return Env(robot, cfg, pool, batch=batch, terrain=terrain)
+
+
+def population_sharding() -> tuple[NamedSharding, int]:
+    devices = jax.devices()
+    mesh = jax.make_mesh((len(devices),), ("pop",), axis_types=(jax.sharding.AxisType.Auto,))
+    return NamedSharding(mesh, PartitionSpec("pop")), len(devices)
+
+
+def make_generation(env: Env) -> Callable:
+    """`generation(state) -> (state, metrics)`: one full ES generation, jittable."""
+    cfg = env.cfg
+    sharding, _ = population_sharding()
+
+    def generation(state: es.ESState):
+        state, noise, members = es.ask(state, cfg.es)
+        pair_keys = jax.random.split(jax.random.fold_in(state.key, 1), cfg.es.population // 2)
+        keys = jnp.concatenate([pair_keys, pair_keys])  # both members of a pair face the same episode
+        members = jax.lax.with_sharding_constraint(members, sharding)
+        keys = jax.lax.with_sharding_constraint(keys, sharding)
+        res = run_episodes(env, members, keys)
+        new = es.tell(state, noise, res.fitness, cfg.es)
+        chunk = cfg.episode.steps_per_check
+        iterations = jnp.ceil(jnp.max(res.steps) / chunk)
+        metrics = {
+            "fitness_mean": jnp.mean(res.fitness),
+            "fitness_max": jnp.max(res.fitness),
+            "fitness_min": jnp.min(res.fitness),
+            "sigma": state.sigma,
+            "learning_rate": state.lr,
+            "physics_steps": jnp.sum(res.steps.astype(jnp.float32)),
+            "simulated_steps": iterations * chunk * cfg.es.population,
+            "episode_seconds_mean": jnp.mean(res.steps) * env.dt,
+            "walking_steps_mean": jnp.mean(res.walking_steps),
+            "terminated_fraction": jnp.mean(res.terminated),
+            "diverged": jnp.sum(res.diverged),
+        }
+        return new, metrics
+
+    return generation
+
+
+def make_run(env: Env, per_call: int) -> Callable:
+    generation = make_generation(env)
+
+    def skip(state):
+        _, metrics = jax.eval_shape(generation, state)
+        return state, jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), metrics)
+
+    def run(state: es.ESState, n_active: jax.Array):
+        def body(state, i):
+            return jax.lax.cond(i < n_active, generation, skip, state)
+
+        return jax.lax.scan(body, state, jnp.arange(per_call))
+
+    return jax.jit(run)
+
+
+def setup(cfg: Config, model_path: str | None = None) -> Trainer:
+    sharding, devices = population_sharding()
+    if cfg.es.population % devices:
+        raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
+    env = make_env(cfg, batch=cfg.es.population, model_path=model_path)
+    state = es.init(env.init_params, jax.random.PRNGKey(cfg.seed), cfg.es)
+    return Trainer(cfg, env, make_run(env, cfg.train.generations_per_call), state, devices)
+
+
+def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock: float) -> dict:
+    env = trainer.env
+    return {
+        "robot": trainer.cfg.robot,
+        "generation": generation,
+        "policy_params": trainer.num_params,
+        "action_dim": env.action_dim,
+        "state_dim": 6,
+        "learned_joints": env.robot.learned_names,
+        "physics_steps": physics_steps,
+        "wall_clock_s": wall_clock,
+        "devices": trainer.devices,
+        "device_kind": jax.devices()[0].device_kind,
+        "backend": jax.default_backend(),
+        "impl": env.impl,
+        "jax_version": jax.__version__,
+        "config": to_dict(trainer.cfg),
+    }
+
+
+def _truncate_metrics(path: Path, generation: int) -> None:
+    """Drop lines for generations after the checkpoint being resumed (a killed run may have written them)."""
+    if not path.exists():
+        return
+    keep = [line for line in path.read_text().splitlines() if line and json.loads(line)["generation"] <= generation]
+    path.write_text("".join(f"{line}\n" for line in keep))
+
+
+def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
+          log: Callable[[str], None] | None = None) -> dict:
+    """Train (or resume) into `out`: `out/checkpoints/` and `out/metrics.jsonl`. Returns a summary."""
+    out = Path(out)
+    log = log or (lambda msg: print(msg, file=sys.stderr))
+    trainer = setup(cfg, model_path)
+    mngr = checkpoint.manager(out / "checkpoints")
+    state, physics_steps, wall_clock = trainer.state, 0.0, 0.0
+    if mngr.latest_step() is not None:
+        state, meta = checkpoint.restore(mngr, state)
+        checkpoint.check_compatible(meta, cfg.robot, trainer.num_params, trainer.env.action_dim)
+        physics_steps, wall_clock = float(meta["physics_steps"]), float(meta["wall_clock_s"])
+        log(f"resuming {out} at generation {int(state.generation)}")
+    # one placement for fresh and restored states, so both hit the same compiled program
+    state = jax.device_put(state, NamedSharding(population_sharding()[0].mesh, PartitionSpec()))
+    generation = int(state.generation)
+    metrics_path = out / METRICS
+    _truncate_metrics(metrics_path, generation)
+
+    target, every, per_call = cfg.train.generations, cfg.train.checkpoint_every, cfg.train.generations_per_call
+    t0 = time.perf_counter()
+    compiled = trainer.run.lower(state, jnp.int32(per_call)).compile()
+    compile_s = time.perf_counter() - t0
+    log(f"compiled one call of {per_call} generations in {compile_s:.1f} s "
+        f"({trainer.env.impl}, {trainer.devices} {jax.default_backend()} device(s), population {cfg.es.population})")
+    bar = _progress(progress, target, generation)
+    start = time.perf_counter()
+    with metrics_path.open("a") as f:
+        while generation < target:
+            n = min(per_call, target - generation, (generation // every + 1) * every - generation)
+            t_call = time.perf_counter()
+            state, metrics = compiled(state, jnp.int32(n))
+            metrics = jax.device_get(metrics)
+            seconds = time.perf_counter() - t_call
+            steps = float(np.sum(metrics["physics_steps"][:n]))
+            for i in range(n):
+                physics_steps += float(metrics["physics_steps"][i])
+                row = {"generation": generation + i + 1, **{k: float(v[i]) for k, v in metrics.items()}}
+                row.update(physics_steps_total=physics_steps, wall_clock_s=wall_clock + time.perf_counter() - start,
+                           samples_per_s=steps / seconds)
+                f.write(json.dumps(row) + "\n")
+            f.flush()
+            generation += n
+            if generation % every == 0 or generation == target:
+                checkpoint.save(mngr, generation, state,
+                                metadata(trainer, generation, physics_steps, wall_clock + time.perf_counter() - start))
+            if bar:
+                bar.update(n)
+                bar.set_postfix(fitness=f"{float(metrics['fitness_mean'][n - 1]):.3f}")
+    if bar:
+        bar.close()
+    if mngr.latest_step() != generation:  # nothing was due (already trained that far): still leave a checkpoint
+        checkpoint.save(mngr, generation, state, metadata(trainer, generation, physics_steps, wall_clock))
+    return {
+        "generation": generation,
+        "physics_steps": physics_steps,
+        "wall_clock_s": wall_clock + time.perf_counter() - start,
+        "compile_s": compile_s,
+        "params_sha256": checkpoint.params_sha256(state.mean),
+        "devices": trainer.devices,
+        "impl": trainer.env.impl,
+    }
+
+
+def _progress(enabled: bool | None, total: int, initial: int) -> Any:
+    if enabled is None:
+        enabled = sys.stderr.isatty()
+    if not enabled:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, unit="gen", file=sys.stderr)

@@ -1,0 +1,57 @@
+"""Shared fixtures. Importing mjx_cascade first sets the XLA CPU flag before JAX starts."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import mjx_cascade  # noqa: F401  (must precede any JAX work)
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+DIGIT_MODEL = SHARED / "models" / "digit" / "digit-v3.xml"
+DATA = Path(__file__).parent / "data"
+
+# Offline: mujoco-menagerie reads Cassie from the shared copy instead of downloading it.
+if (SHARED / "menagerie").is_dir():
+    os.environ.setdefault("MENAGERIE_ROOT", str(SHARED / "menagerie"))
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compilation_cache(tmp_path_factory):
+    """One XLA cache for the whole session, shared with the CLI subprocesses."""
+    path = os.environ.get("JAX_COMPILATION_CACHE_DIR") or str(tmp_path_factory.mktemp("xla"))
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = path
+    from mjx_cascade import _xla
+
+    _xla.enable_compilation_cache(path)
+    return path
+
+
+@pytest.fixture(scope="session")
+def cassie_cfg():
+    from mjx_cascade import config
+
+    return config.robot_config("cassie").override(**{"episode.pool_size": 4, "episode.seconds": 0.25})
+
+
+@pytest.fixture(scope="session")
+def cassie(cassie_cfg):
+    from mjx_cascade import robots
+
+    return robots.build(robots.get("cassie"), cassie_cfg)
+
+
+@pytest.fixture(scope="session")
+def cassie_pool(cassie, cassie_cfg):
+    from mjx_cascade import standing
+
+    return standing.balanced_pool(cassie, cassie_cfg)
+
+
+@pytest.fixture(scope="session")
+def cassie_env(cassie, cassie_cfg, cassie_pool):
+    from mjx_cascade.env import Env
+
+    return Env(cassie, cassie_cfg, cassie_pool, batch=4)

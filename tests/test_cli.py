@@ -1,0 +1,161 @@
+"""The command line as users and outside checks drive it, in subprocesses."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import DATA, DIGIT_MODEL, ROOT
+
+SMOKE = ["--population", "4", "--episode-seconds", "0.5", "--set", "episode.pool_size=4"]
+
+
+def cli(*args, timeout=600, env=None):
+    return subprocess.run([sys.executable, "-m", "mjx_cascade.cli", *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout, env={**os.environ, **(env or {})}, cwd=ROOT)
+
+
+@pytest.mark.parametrize("robot, expect, model", [
+    ("cassie", (4184, 24, 6), None),
+    ("digit", (4316, 28, 6), DIGIT_MODEL),
+])
+def test_info_reports_table_1(robot, expect, model):
+    args = ["info", "--robot", robot, "--json"] + (["--model", model] if model else [])
+    out = cli(*args)
+    assert out.returncode == 0, out.stderr
+    info = json.loads(out.stdout)
+    assert (info["policy_params"], info["action_dim"], info["state_dim"]) == expect
+    assert info["robot"] == robot and info["dt"] == 0.0005 and len(info["learned_joints"]) == expect[1] // 4
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    """Two generations, then a rerun of the same command with --generations 3 (a resume)."""
+    out = tmp_path_factory.mktemp("runs") / "smoke"
+    first = cli("train", "--robot", "cassie", "--out", out, "--generations", 2, *SMOKE)
+    assert first.returncode == 0, first.stderr[-3000:]
+    lines_after_first = (out / "metrics.jsonl").read_text().splitlines()
+    second = cli("train", "--robot", "cassie", "--out", out, "--generations", 3, *SMOKE)
+    assert second.returncode == 0, second.stderr[-3000:]
+    return out, lines_after_first, first, second
+
+
+@pytest.mark.slow
+def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
+    out, first_lines, _, second = smoke
+    assert len(first_lines) == 2
+    lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [r["generation"] for r in lines] == [1, 2, 3]
+    for key in ("fitness_mean", "fitness_max", "sigma", "learning_rate", "physics_steps_total", "wall_clock_s",
+                "samples_per_s", "diverged"):
+        assert all(np.isfinite(r[key]) for r in lines), key
+    assert lines[2]["physics_steps_total"] > lines[1]["physics_steps_total"]
+    assert "resuming" in second.stderr
+    # every 10 generations by default, and always where a run stops
+    assert sorted(p.name for p in (out / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "3"]
+
+
+@pytest.mark.slow
+def test_resumed_run_matches_an_uninterrupted_one(smoke, tmp_path):
+    out = smoke[0]
+    straight = cli("train", "--robot", "cassie", "--out", tmp_path / "straight", "--generations", 3, *SMOKE)
+    assert straight.returncode == 0, straight.stderr[-3000:]
+    a = json.loads(cli("info", "--checkpoint", out, "--json").stdout)
+    b = json.loads(cli("info", "--checkpoint", tmp_path / "straight", "--json").stdout)
+    assert a["generation"] == b["generation"] == 3
+    assert a["params_sha256"] == b["params_sha256"]
+
+
+@pytest.mark.slow
+def test_eval_writes_trajectory_metrics_and_plots(smoke, tmp_path):
+    out = tmp_path / "eval"
+    res = cli("eval", "--robot", "cassie", "--checkpoint", smoke[0], "--scenario", DATA / "short.json",
+              "--out", out, "--dt", 0.0005, "--json")
+    assert res.returncode == 0, res.stderr[-3000:]
+    traj = np.load(out / "trajectory.npz")
+    t = traj["t"]
+    assert np.max(np.diff(t)) <= 0.01 + 1e-9 and t[-1] == pytest.approx(0.3, abs=0.011)
+    assert traj["qpos"].shape == (len(t), 35) and traj["qvel"].shape == (len(t), 32)
+    assert traj["cmd"].shape == (len(t), 3)
+    np.testing.assert_allclose(traj["cmd"][t < 0.14][:, 0], 0.2)
+    np.testing.assert_allclose(traj["cmd"][t > 0.16][:, 1:], [[0.1, 0.1]] * int(np.sum(t > 0.16)))
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert set(metrics) >= {"fell", "segments", "passed", "policy"}
+    assert json.loads(res.stdout)["policy"]["generation"] == 3
+    for png in ("tracking.png", "limit_cycles.png"):
+        assert (out / png).stat().st_size > 10_000
+
+
+def _bad_scenario(tmp_path, text):
+    path = tmp_path / f"scenario{len(list(tmp_path.glob('scenario*.json')))}.json"
+    path.write_text(text if isinstance(text, str) else json.dumps(text))
+    return path
+
+
+GOOD = {"duration": 5, "commands": [{"t": 0, "vx": 0.2, "vy": 0, "yaw": 0}]}
+
+
+def _with(**change):
+    return {**GOOD, **change}
+
+
+def bad_inputs(tmp_path):
+    ckpt_free = tmp_path / "not_a_checkpoint"
+    ckpt_free.mkdir()
+    (ckpt_free / "notes.txt").write_text("hello")
+    cfg = tmp_path / "typo.yaml"
+    cfg.write_text("robot: cassie\nes:\n  sigmma: 0.1\n")
+    scen = lambda data: _bad_scenario(tmp_path, data)  # noqa: E731
+    train = ["train", "--robot", "cassie", "--out"]
+    ev = lambda path: ["eval", "--robot", "cassie", "--checkpoint", ckpt_free, "--scenario", path, "--out"]  # noqa: E731
+    return [
+        (["train", "--robot", "robo", "--out"], "invalid choice"),
+        (["train", "--config", cfg, "--out"], "sigmma"),
+        (train[:3] + ["--set", "es.sigmma=0.1", "--out"], "sigmma"),
+        (train[:3] + ["--population", "5", "--out"], "es.population"),
+        (train[:3] + ["--population", "0", "--out"], "es.population"),
+        (train[:3] + ["--set", "es.sigma=0", "--out"], "es.sigma"),
+        (train[:3] + ["--set", "es.learning_rate=-0.1", "--out"], "es.learning_rate"),
+        (train[:3] + ["--set", "physics.dt=0", "--out"], "physics.dt"),
+        (train[:3] + ["--episode-seconds", "0", "--out"], "episode.seconds"),
+        (["train", "--robot", "digit", "--model", tmp_path / "missing.xml", "--out"], "not found"),
+        (["train", "--robot", "digit", "--model", ROOT.parent / "shared/menagerie/agility_cassie/cassie.xml", "--out"],
+         "not a digit model"),
+        (ev(scen("{oops")), "not valid JSON"),
+        (ev(scen(_with(colour="red"))), "unknown key 'colour'"),
+        (ev(scen(_with(duration=-1))), "duration must be positive"),
+        (ev(scen(_with(commands=[{"t": 1, "vx": 0, "vy": 0, "yaw": 0}]))), "t = 0"),
+        (ev(scen(_with(commands=[{"t": 0, "vx": 0, "vy": 0, "yaw": 0}, {"t": 0, "vx": 0, "vy": 0, "yaw": 0}]))),
+         "increase"),
+        (ev(scen(_with(terrain={"type": "ice"}))), "unknown terrain"),
+        (ev(scen(_with(pushes=[{"t": 1, "duration": -1, "force": [1, 0, 0]}]))), "duration must be >= 0"),
+        (ev(scen(GOOD)), "not a checkpoint"),
+        (["eval", "--robot", "cassie", "--checkpoint", ckpt_free, "--scenario", scen(GOOD), "--dt", "0", "--out"],
+         "--dt"),
+        (["info", "--checkpoint", ckpt_free], "not a checkpoint"),
+    ]
+
+
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path):
+    for i, (args, message) in enumerate(bad_inputs(tmp_path)):
+        out = tmp_path / f"out{i}"
+        res = cli(*args, *([out] if args[-1] == "--out" else []))
+        lines = res.stderr.strip().splitlines()
+        assert res.returncode == 2, (args, res.stderr[-2000:])
+        assert len(lines) == 1 and message in lines[0] and "Traceback" not in res.stderr, (args, res.stderr)
+        assert not out.exists(), args
+
+
+@pytest.mark.slow
+def test_checkpoints_for_another_robot_or_policy_are_refused(smoke, tmp_path):
+    out = smoke[0]
+    before = sorted(p.name for p in (out / "checkpoints").iterdir())
+    res = cli("train", "--robot", "cassie", "--out", out, "--generations", 4, *SMOKE, "--set", "policy.hidden_units=16")
+    assert res.returncode == 2 and "parameters" in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == before
+    res = cli("eval", "--robot", "digit", "--model", DIGIT_MODEL, "--checkpoint", out,
+              "--scenario", DATA / "short.json", "--out", tmp_path / "e")
+    assert res.returncode == 2 and "for robot 'cassie'" in res.stderr and not (tmp_path / "e").exists()

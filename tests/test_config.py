@@ -1,0 +1,65 @@
+import pytest
+import yaml
+
+from mjx_cascade import config
+from mjx_cascade.config import ConfigError
+
+
+def test_robot_configs_carry_the_paper_tables():
+    c, d = config.robot_config("cassie"), config.robot_config("digit")
+    # Table 3
+    assert (c.es.population, c.es.sigma, c.es.sigma_decay, c.es.sigma_min) == (24, 0.1, 0.9999, 1e-4)
+    assert (c.es.learning_rate, c.es.lr_decay, c.es.lr_min) == (0.01, 0.9999, 1e-4)
+    # Table 4
+    assert (c.rewards.height, d.rewards.height, c.rewards.e_height, d.rewards.e_height) == (0.91, 1.0, 0.05, 0.04)
+    assert d.rewards.weights.stance_foot == 0.5 and c.rewards.weights.stance_foot == 0.0
+    # Table 7
+    assert (c.regulators.k_phr, c.regulators.k_p_roll, d.regulators.k_p_roll, d.regulators.k_ptp) == (1.0, 100.0, 3500.0, 0.1)
+    # Sec. V-C episode lengths
+    assert (c.episode.seconds, d.episode.seconds) == (5.0, 7.5)
+
+
+def test_overrides_are_typed_and_validated():
+    c = config.robot_config("cassie").override(**{"es.sigma": "0.05", "episode.vx": "[0, 1]"})
+    assert c.es.sigma == 0.05 and c.episode.vx == (0.0, 1.0)
+    with pytest.raises(ConfigError, match="es.population"):
+        c.override(**{"es.population": 7})
+    with pytest.raises(ConfigError, match="es.population"):
+        c.override(**{"es.population": -4})
+    with pytest.raises(ConfigError, match="unknown config key 'es.sigmaa'"):
+        c.override(**{"es.sigmaa": 0.1})
+    with pytest.raises(ConfigError, match="must be an integer"):
+        c.override(**{"train.generations": 1.5})
+
+
+@pytest.mark.parametrize("key", ["es.sigma", "es.learning_rate", "physics.dt", "episode.seconds"])
+@pytest.mark.parametrize("value", [0, -1])
+def test_non_positive_settings_are_refused(key, value):
+    with pytest.raises(ConfigError, match=key):
+        config.robot_config("cassie").override(**{key: value})
+
+
+def test_user_config_file(tmp_path):
+    path = tmp_path / "run.yaml"
+    path.write_text(yaml.safe_dump({"robot": "cassie", "es": {"population": 64}, "gait": {"step_time": 0.35}}))
+    cfg = config.load(path)
+    assert cfg.es.population == 64 and cfg.gait.step_time == 0.35 and cfg.es.sigma == 0.1
+    path.write_text(yaml.safe_dump({"robot": "cassie", "es": {"populaton": 64}}))
+    with pytest.raises(ConfigError, match="populaton"):
+        config.load(path)
+    path.write_text(yaml.safe_dump({"robot": "bob"}))
+    with pytest.raises(ConfigError, match="unknown robot"):
+        config.load(path)
+    path.write_text("es: [1, 2")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        config.load(path)
+
+
+def test_every_setting_is_in_the_shipped_yaml():
+    """A complete YAML round-trips: the robot configs leave nothing to hidden defaults."""
+    cfg = config.robot_config("cassie")
+    assert config.from_dict(config.to_dict(cfg)) == cfg
+    data = config.to_dict(cfg)
+    del data["gait"]["step_time"]
+    with pytest.raises(ConfigError, match="gait.step_time"):
+        config.from_dict(data)

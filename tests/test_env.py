@@ -1,0 +1,74 @@
+"""The environment and training episodes on the real Cassie (compiles MJX on the CPU)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from mjx_cascade import bezier, es, gait, rollout, train
+from mjx_cascade.env import Env
+
+pytestmark = pytest.mark.slow
+
+
+def test_impact_invariance_at_a_switch(cassie_env, cassie_pool):
+    """When a step ends, the new trajectories start at the joints' positions with zero velocity,
+    so the learned joints' PD torque is pure damping at the switch."""
+    env = cassie_env
+    r = env.robot
+    qd = jnp.asarray(np.random.default_rng(0).normal(size=r.qpos_adr.shape), jnp.float32)
+
+    @jax.jit
+    def switch(key):
+        state = env.reset(env.init_params, key, jnp.zeros(3))
+        obs = env.observe(state.data)._replace(qd=qd, foot_force=jnp.array([200.0, 200.0]))
+        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3))  # past min_phase with the swing foot loaded
+        return state, obs, env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+
+    state, obs, (u, ended, c) = switch(jax.random.PRNGKey(0))
+    assert bool(ended) and int(c.stance) == 1 - int(state.ctrl.stance)
+    q_role = gait.absolute_to_role(obs.q, c.stance, r.mirror)
+    np.testing.assert_allclose(c.alpha[:, 0], q_role[r.learned_role, r.learned_joint], atol=1e-6)
+    np.testing.assert_allclose(bezier.value(c.alpha, 0.0), c.alpha[:, 0], atol=1e-6)
+    learned = gait.role_to_absolute(jnp.zeros((2, len(r.mirror))).at[r.learned_role, r.learned_joint].set(1.0),
+                                    c.stance, np.ones_like(r.mirror))
+    mask = np.asarray(learned) > 0
+    np.testing.assert_allclose(np.asarray(u)[mask], (-r.kd * np.asarray(obs.qd))[mask], rtol=1e-4, atol=1e-4)
+
+
+@pytest.fixture(scope="module")
+def episodes(cassie_env):
+    env = cassie_env
+    params = jnp.stack([env.init_params] * 4)
+    keys = jax.random.split(jax.random.PRNGKey(1), 4)
+    return jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
+
+
+def test_episodes_walk_steps_and_score(episodes, cassie_env):
+    assert np.all(np.isfinite(np.asarray(episodes.fitness)))
+    assert np.all(np.asarray(episodes.steps) > 100)
+    assert np.all(np.asarray(episodes.steps) <= cassie_env.episode_steps)
+    assert np.all(np.asarray(episodes.walking_steps) >= 0)
+    assert not np.any(np.asarray(episodes.diverged))
+
+
+class FaultyEnv(Env):
+    """Blows up environment 0's physics after 20 steps, as a diverging simulation would."""
+
+    def step(self, params, state, cmd, force=None, model=None):
+        state = super().step(params, state, cmd, force, model)
+        poison = (state.t == 20) & (jnp.abs(params[0] - self.marker) < 1e-6)  # jit may round the last bit
+        qvel = jnp.where(poison, jnp.nan, state.data.qvel)
+        return state.replace(data=state.data.replace(qvel=qvel))
+
+
+def test_diverged_physics_is_counted_and_never_reaches_the_update(cassie, cassie_cfg, cassie_pool):
+    cfg = cassie_cfg.override(**{"es.population": 4})
+    env = FaultyEnv(cassie, cfg, cassie_pool, batch=4)
+    state = es.init(env.init_params, jax.random.PRNGKey(0), cfg.es)
+    _, _, members = es.ask(state, cfg.es)
+    env.marker = float(members[0, 0])  # only the first member's episode diverges
+    new, metrics = jax.jit(train.make_generation(env))(state)
+    assert int(metrics["diverged"]) == 1
+    assert np.all(np.isfinite(np.asarray(new.mean)))
+    assert np.isfinite(float(metrics["fitness_min"])) and np.isfinite(float(metrics["fitness_mean"]))

@@ -1,0 +1,124 @@
+"""Regulator signs: pure functions, then the whole controller on hand-built states checked
+against the model's own kinematics (would the swing foot really land where Raibert says?)."""
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+import pytest
+
+from mjx_cascade import config, gait, regulators
+from mjx_cascade.physics import mjx
+
+REG = config.robot_config("cassie").regulators
+
+
+def test_swing_placement_follows_excess_velocity_and_ramps_in():
+    zero = jnp.zeros(2)
+    fast = regulators.swing_placement(jnp.array([0.5, 0.0]), jnp.array([0.2, 0.0]), zero, zero, 1.0, REG)
+    assert fast[0] > 0 and fast[1] == 0
+    left = regulators.swing_placement(jnp.array([0.0, 0.3]), zero, zero, zero, 1.0, REG)
+    assert left[1] > 0
+    np.testing.assert_allclose(regulators.swing_placement(jnp.array([0.5, 0.3]), zero, zero, zero, 0.0, REG), 0.0)
+    # the drift terms add directly
+    drift = regulators.swing_placement(zero, zero, zero, jnp.array([0.05, -0.02]), 1.0, REG)
+    np.testing.assert_allclose(drift, [0.05, -0.02], atol=1e-7)
+
+
+def test_heading_turns_back_and_wraps():
+    assert regulators.heading(0.3, 0.0, 1.0, REG) < 0
+    assert regulators.heading(-0.3, 0.0, 1.0, REG) > 0
+    # 3.1 is 0.083 rad short of -3.1 going the short way round: turn on, not back
+    np.testing.assert_allclose(regulators.heading(3.1, -3.1, 1.0, REG), (2 * np.pi - 6.2) * REG.k_heading, atol=1e-5)
+
+
+def test_drift_integrates_the_step_error_within_bounds():
+    beta = jnp.zeros(2)
+    for _ in range(100):
+        beta = regulators.drift_update(beta, jnp.array([0.5, -0.5]), jnp.zeros(2), REG)
+    np.testing.assert_allclose(beta, [REG.drift_limit, -REG.drift_limit], atol=1e-6)
+
+
+def test_torso_torque_opposes_tilt():
+    t = regulators.torso_torque(np.array([0.1, -0.2, 0.0]), np.zeros(3), REG)
+    assert t[0] < 0 and t[1] > 0
+    damp = regulators.torso_torque(np.zeros(3), np.array([0.5, 0.5, 0.0]), REG)
+    assert damp[0] < 0 and damp[1] < 0
+
+
+# ---------------------------------------------------------------- whole controller, model kinematics
+
+
+@pytest.fixture(scope="module")
+def standing(cassie_env, cassie_pool):
+    env = cassie_env
+    data = env.data_template.replace(qpos=jnp.asarray(cassie_pool[0][0]), qvel=jnp.zeros(env.robot.model.nv))
+    data = jax.jit(lambda d: mjx.forward(env.model, d))(data)
+    state = env.reset(env.init_params, jax.random.PRNGKey(0), jnp.zeros(3))
+    # right foot in stance, a quarter into the step: too early for a touchdown to end it
+    ctrl = state.ctrl.replace(stance=jnp.int32(gait.RIGHT), step_start=jnp.float32(-0.1))
+    return env, data, env.observe(data), ctrl
+
+
+def _torque_change(env, obs, ctrl, cmd, **change):
+    base, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), cmd)
+    moved, _, _ = env.control(env.init_params, ctrl.replace(**change), obs, jnp.float32(0.0), cmd)
+    return np.asarray(moved - base)
+
+
+def _swing_foot_shift(env, data, joint, dq):
+    m, r = env.robot.model, env.robot
+    d = mujoco.MjData(m)
+    d.qpos[:] = np.asarray(data.qpos)
+    mujoco.mj_kinematics(m, d)
+    before = d.xpos[r.foot_body[gait.LEFT]].copy(), d.xmat[r.foot_body[gait.LEFT]].reshape(3, 3).copy()
+    d.qpos[r.qpos_adr[gait.LEFT, joint]] += dq
+    mujoco.mj_kinematics(m, d)
+    after = d.xpos[r.foot_body[gait.LEFT]].copy(), d.xmat[r.foot_body[gait.LEFT]].reshape(3, 3).copy()
+    return after[0] - before[0], after[1] @ before[1].T
+
+
+def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
+    env, data, obs, ctrl = standing
+    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_est=ctrl.v_est + jnp.array([0.4, 0.0]))
+    j = env.robot.hip_pitch
+    dq = du[gait.LEFT, j] / env.robot.kp[j]  # the right foot is in stance: the left leg swings
+    assert abs(dq) > 1e-3
+    shift, _ = _swing_foot_shift(env, data, j, dq)
+    assert shift[0] > 0
+
+
+def test_drifting_left_places_the_swing_foot_further_left(standing):
+    env, data, obs, ctrl = standing
+    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_est=ctrl.v_est + jnp.array([0.0, 0.3]))
+    j = env.robot.hip_roll
+    shift, _ = _swing_foot_shift(env, data, j, du[gait.LEFT, j] / env.robot.kp[j])
+    assert shift[1] > 0
+
+
+def test_heading_error_turns_the_landing_foot_against_it(standing):
+    """Yaw beyond the command: the swing foot lands turned clockwise relative to the pelvis, so
+    straightening the hip during the next stance turns the pelvis back."""
+    env, data, obs, ctrl = standing
+    cmd_turned = jnp.array([0.0, 0.0, -0.3])  # pelvis yaw (0) is 0.3 rad beyond the command
+    base, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+    moved, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), cmd_turned)
+    j = env.robot.hip_yaw
+    dq = float(moved[gait.LEFT, j] - base[gait.LEFT, j]) / env.robot.kp[j]
+    _, rot = _swing_foot_shift(env, data, j, dq)
+    assert rot[1, 0] < 0  # the foot turned clockwise about z
+
+
+def test_torso_torques_right_the_pelvis(standing):
+    env, data, obs, ctrl = standing
+    m, r = env.robot.model, env.robot
+    d = mujoco.MjData(m)
+    d.qpos[:] = np.asarray(data.qpos)
+    mujoco.mj_kinematics(m, d)
+    stance = gait.RIGHT
+    for axis, joint, tilt in ((0, r.hip_roll, [0.1, 0.0, 0.0]), (1, r.hip_pitch, [0.0, 0.1, 0.0])):
+        tilted = obs._replace(rpy=obs.rpy + jnp.array(tilt), omega=jnp.zeros(3))
+        u, _, _ = env.control(env.init_params, ctrl, tilted, jnp.float32(0.0), jnp.zeros(3))
+        jnt = int(np.nonzero(m.jnt_qposadr == r.qpos_adr[stance, joint])[0][0])
+        on_pelvis = -float(u[stance, joint]) * d.xaxis[jnt]  # a joint torque's reaction on its parent
+        assert on_pelvis[axis] < 0, (axis, on_pelvis)

@@ -1,0 +1,40 @@
+"""The population axis is sharded over every local device: one generation on 1 and on 4
+(simulated) CPU devices gives the same parameters within floating-point tolerance."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+pytestmark = pytest.mark.slow
+
+SCRIPT = """
+import sys
+import mjx_cascade, jax, jax.numpy as jnp, numpy as np
+from mjx_cascade import config, train
+assert len(jax.devices()) == int(sys.argv[2]), jax.devices()
+cfg = config.robot_config("cassie").override(**{"es.population": 4, "episode.seconds": 0.1,
+    "episode.pool_size": 4, "train.generations_per_call": 1})
+trainer = train.setup(cfg)
+state, metrics = trainer.run(trainer.state, jnp.int32(1))
+np.save(sys.argv[1], np.stack([np.asarray(trainer.state.mean), np.asarray(state.mean)]))
+"""
+
+
+def one_generation(path, devices):
+    flags = os.environ.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={devices}"
+    res = subprocess.run([sys.executable, "-c", SCRIPT, str(path), str(devices)], capture_output=True, text=True,
+                         timeout=600, cwd=ROOT, env={**os.environ, "XLA_FLAGS": flags, "JAX_PLATFORMS": "cpu"})
+    assert res.returncode == 0, res.stderr[-3000:]
+    return np.load(path)
+
+
+def test_one_and_four_devices_agree(tmp_path):
+    start, one = one_generation(tmp_path / "one.npy", 1)
+    _, four = one_generation(tmp_path / "four.npy", 4)
+    assert np.all(np.isfinite(one)) and np.max(np.abs(one - start)) > 1e-4  # the generation moved them
+    np.testing.assert_allclose(four, one, rtol=1e-5, atol=1e-6)
