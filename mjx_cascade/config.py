@@ -110,7 +110,7 @@ class RewardConfig:
     com_radius: float  # d in Table 4: radius of the admissible CoM region P
     feet_min: float
     feet_max: float
-    termination_penalty: float  # subtracted once when an episode ends early
+    termination_penalty: float  # per second of the episode lost to early termination
     weights: RewardWeights
 
 

@@ -259,8 +259,10 @@ class Env:
         terminated = rewards.terminated(x, cfg.termination) | diverged
         live = ~state.done
         reward = jnp.where(live & ~diverged, jnp.dot(self._weights, terms) * self.dt, 0.0)
-        penalty = jnp.where(live & terminated, cfg.rewards.termination_penalty, 0.0)
         t = state.t + live.astype(jnp.int32)
+        # charged per second of episode lost, so surviving longer always pays
+        lost = (self.episode_steps - t) * self.dt
+        penalty = jnp.where(live & terminated, cfg.rewards.termination_penalty * lost, 0.0)
         return EnvState(
             data=data,
             ctrl=ctrl,

@@ -84,7 +84,7 @@ def test_terms_order_and_weights():
     ({}, False),
     ({"rpy_error": jnp.array([0.6, 0.0, 0.0])}, True),
     ({"rpy_error": jnp.array([0.0, -0.6, 0.0])}, True),
-    ({"rpy_error": jnp.array([0.0, 0.0, 0.6])}, True),
+    ({"rpy_error": jnp.array([0.0, 0.0, 1.1])}, True),  # yaw error bound widened to 1.0 (README)
     ({"omega": jnp.array([0.0, 2.5, 0.0])}, True),
     ({"height": jnp.float32(0.75)}, True),
     ({"height": jnp.float32(1.25)}, True),
