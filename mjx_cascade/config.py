@@ -76,7 +76,6 @@ class RegulatorConfig:
     blend_phase: float  # swing compensations ramp in over tau in [0, blend_phase]
     k_i_drift: float  # PI drift terms beta_x, beta_y: rad per (m/s) per step
     drift_limit: float  # |beta| bound, rad
-    velocity_filter: float  # time constant of the in-step velocity estimate, s
     slope_estimation: bool  # swing foot parallel to the stance foot (Sec. IV-A)
 
 
@@ -346,7 +345,6 @@ def validate(cfg: Config) -> None:
     need(cfg.policy.hidden_layers >= 0 and cfg.policy.hidden_units >= 1, "policy size must be positive")
     r = cfg.regulators
     need(0 < r.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")
-    need(r.velocity_filter > 0, "regulators.velocity_filter must be positive")
     need(r.drift_limit >= 0, "regulators.drift_limit must be >= 0")
     rw = cfg.rewards
     need(rw.rho_v > 0 and rw.epsilon > 0 and rw.rho_d > 0, "rewards.rho_v, epsilon, rho_d must be positive")

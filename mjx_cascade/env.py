@@ -35,11 +35,11 @@ class ControllerState(struct.PyTreeNode):
     alpha: Array  # [N, M + 1] Bezier coefficients of the learned joints, role coordinates
     v_sum: Array  # [2] sum of heading-frame pelvis velocities over the current step
     v_count: Array  # physics steps in the current step
-    v_avg: Array  # [2] average velocity over the last completed step (vbar of the features)
+    v_avg: Array  # [2] average velocity over the last completed step (vbar of eq. 25 and the features)
     v_last: Array  # [2] average over the step before it (v^ls of eq. 25)
-    v_est: Array  # [2] low-passed velocity, the regulators' in-step vbar
     beta: Array  # [2] PI drift terms (beta_x, beta_y)
     ground: Array  # [2] terrain (pitch, roll) estimated from the stance foot
+    lifted: Array  # the swing foot has been unloaded during this step
     steps: Array  # walking steps completed
 
 
@@ -166,9 +166,9 @@ class Env:
             v_count=jnp.zeros(()),
             v_avg=zeros2,
             v_last=zeros2,
-            v_est=obs.v_heading,
             beta=zeros2,
             ground=zeros2,
+            lifted=jnp.zeros((), bool),
             steps=jnp.zeros((), jnp.int32),
         )
         false = jnp.zeros((), bool)
@@ -185,7 +185,9 @@ class Env:
         # walking-step bookkeeping and the stance switch (Sec. III-C)
         tau = (time - c.step_start) / g.step_time
         swing_leg = 1 - c.stance
-        ended = gait.step_ended(tau, obs.foot_force[swing_leg], g.min_phase, g.max_phase, g.grf_threshold)
+        swing_force = obs.foot_force[swing_leg]
+        lifted = c.lifted | (swing_force < g.grf_threshold)
+        ended = gait.step_ended(tau, swing_force, lifted, g.min_phase, g.max_phase, g.grf_threshold)
         v_sum = c.v_sum + obs.v_heading
         v_count = c.v_count + 1.0
         v_step = v_sum / v_count
@@ -199,8 +201,8 @@ class Env:
             v_count=jnp.where(ended, 0.0, v_count),
             v_avg=v_avg,
             v_last=jnp.where(ended, c.v_avg, c.v_last),
-            v_est=regulators.velocity_estimate(c.v_est, obs.v_heading, self.dt, reg),
             beta=jnp.where(ended, regulators.drift_update(c.beta, v_step, cmd_v, reg), c.beta),
+            lifted=lifted & ~ended,
             steps=c.steps + ended.astype(jnp.int32),
         )
         tau = jnp.where(ended, 0.0, tau)
@@ -210,7 +212,7 @@ class Env:
         y, yd = bezier.evaluate(c.alpha, tau, g.step_time)
         ref = jnp.asarray(r.nominal_role, jnp.float32).at[r.learned_role, r.learned_joint].set(y)
         ref_v = jnp.zeros_like(ref).at[r.learned_role, r.learned_joint].set(yd)
-        place = regulators.swing_placement(c.v_est, cmd_v, c.v_last, c.beta, tau, reg)
+        place = regulators.swing_placement(c.v_avg, cmd_v, c.v_last, c.beta, tau, reg)
         turn = regulators.heading(obs.rpy[2], cmd_yaw, tau, reg)
         ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
@@ -225,7 +227,7 @@ class Env:
             ground = ground + a * (obs.foot_angles[stance] - ground)
         c = c.replace(ground=ground)
         want = jnp.stack([ground, ground])
-        want = want.at[stance].add(regulators.stance_foot_tilt(c.v_est, cmd_v, reg))
+        want = want.at[stance].add(regulators.stance_foot_tilt(c.v_avg, cmd_v, reg))
         toe_step = jnp.einsum("lkc,lc->lk", r.toe_pinv, want - obs.foot_angles) * self._side[:, r.toe]
         ref = ref.at[:, r.toe].set(obs.q[:, r.toe] + toe_step)
         ref_v = ref_v.at[:, r.toe].set(0.0)

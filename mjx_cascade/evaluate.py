@@ -36,7 +36,8 @@ def load_policy(robot: str, checkpoint_dir: str | None) -> tuple[Config, np.ndar
             raise ConfigError(f"the checkpoint is for robot {meta.get('robot')!r}, not {robot!r}")
     else:
         meta, params = policies.load(robot)
-    return from_dict(meta["config"]), params, meta
+    # the backend it trained on says nothing about where it runs now
+    return from_dict(meta["config"]).override(**{"physics.impl": "auto"}), params, meta
 
 
 def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:

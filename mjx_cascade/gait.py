@@ -70,6 +70,12 @@ def coefficients(action: Array, q_start: Array, low: Array, high: Array) -> Arra
     return jnp.concatenate([q_start[:, None], q_start[:, None], free], axis=1)
 
 
-def step_ended(tau: Array, swing_force: Array, min_phase: float, max_phase: float, threshold: float) -> Array:
-    """Stance switch (Sec. III-C): swing-foot touchdown after `min_phase`, or a time-out."""
-    return ((tau >= min_phase) & (swing_force > threshold)) | (tau >= max_phase)
+def step_ended(tau: Array, swing_force: Array, lifted: Array, min_phase: float, max_phase: float,
+               threshold: float) -> Array:
+    """Stance switch (Sec. III-C): swing-foot touchdown after `min_phase`, or a time-out.
+
+    A touchdown is the swing foot's normal force rising above `threshold` after the foot
+    has been unloaded (`lifted`) during this step: a foot that never left the ground has not
+    landed, and its step ends only by time-out.
+    """
+    return ((tau >= min_phase) & lifted & (swing_force > threshold)) | (tau >= max_phase)

@@ -5,8 +5,9 @@ kinematic signs (derived from its model, `robots/base.py`) that turn "move the s
 forward / outward" or "pitch the pelvis back" into joint-space signs. This replaces the
 paper's hand-set S_y and S_theta (eq. 24 and Sec. IV-B) for any leg geometry.
 
-Velocities are in the heading frame. `v_est` is the in-step velocity estimate, `v_des` the
-command and `v_last` the average velocity of the previous step (v^ls in eq. 25).
+Velocities are in the heading frame: `v_avg` is the pelvis velocity averaged over the last
+completed step (vbar of eq. 25), `v_des` the command and `v_last` the average over the step
+before it (v^ls), so the compensations are constant within a step and ignore the sway inside it.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ def blend(tau: Array, cfg: RegulatorConfig) -> Array:
     return jnp.clip(tau / cfg.blend_phase, 0.0, 1.0)
 
 
-def swing_placement(v_est: Array, v_des: Array, v_last: Array, beta: Array, tau: Array, cfg: RegulatorConfig) -> Array:
+def swing_placement(v_avg: Array, v_des: Array, v_last: Array, beta: Array, tau: Array, cfg: RegulatorConfig) -> Array:
     """Eq. 23-26, rows 1-2: how far to move the swing foot `[forward, leftward]`, in hip radians.
 
     delta_hp = K_php (v_x - v_x^d) + K_dhp (v_x - v_x^ls) + beta_x
@@ -37,8 +38,8 @@ def swing_placement(v_est: Array, v_des: Array, v_last: Array, beta: Array, tau:
     The printed P matrix repeats K_dhr in row 2; K_dhp (Table 7) is the evident intent. The
     robot multiplies each component by the sign of d(foot position)/d(joint angle).
     """
-    e_des = v_est - v_des
-    e_last = v_est - v_last
+    e_des = v_avg - v_des
+    e_last = v_avg - v_last
     forward = cfg.k_php * e_des[0] + cfg.k_dhp * e_last[0] + beta[0]
     lateral = cfg.k_phr * e_des[1] + cfg.k_dhr * e_last[1] + beta[1]
     return blend(tau, cfg) * jnp.stack([forward, lateral])
@@ -58,15 +59,9 @@ def drift_update(beta: Array, v_step: Array, v_des: Array, cfg: RegulatorConfig)
     return jnp.clip(beta + cfg.k_i_drift * (v_step - v_des), -cfg.drift_limit, cfg.drift_limit)
 
 
-def velocity_estimate(v_filtered: Array, v_now: Array, dt: float, cfg: RegulatorConfig) -> Array:
-    """First-order low-pass of the pelvis velocity, the in-step vbar of eq. 25."""
-    a = dt / (cfg.velocity_filter + dt)
-    return v_filtered + a * (v_now - v_filtered)
-
-
-def stance_foot_tilt(v_est: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
+def stance_foot_tilt(v_avg: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
     """Eq. 24 rows 6-7: stance foot `[pitch, roll]` offsets from the velocity error (Digit)."""
-    e = v_est - v_des
+    e = v_avg - v_des
     return jnp.stack([cfg.k_ptp * e[0], cfg.k_ptr * e[1]])
 
 

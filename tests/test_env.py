@@ -22,7 +22,8 @@ def test_impact_invariance_at_a_switch(cassie_env, cassie_pool):
     def switch(key):
         state = env.reset(env.init_params, key, jnp.zeros(3))
         obs = env.observe(state.data)._replace(qd=qd, foot_force=jnp.array([200.0, 200.0]))
-        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3))  # past min_phase with the swing foot loaded
+        # past min_phase, the swing foot lifted earlier and loaded now: a touchdown
+        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3), lifted=jnp.bool_(True))
         return state, obs, env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
 
     state, obs, (u, ended, c) = switch(jax.random.PRNGKey(0))

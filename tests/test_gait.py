@@ -69,8 +69,11 @@ def test_coefficients_impact_invariance_and_ranges():
 
 
 def test_step_ends_on_touchdown_after_min_phase_or_on_time_out():
-    ended = lambda tau, f: bool(gait.step_ended(jnp.float32(tau), jnp.float32(f), 0.5, 1.3, 50.0))
+    def ended(tau, force, lifted=True):
+        return bool(gait.step_ended(jnp.float32(tau), jnp.float32(force), jnp.bool_(lifted), 0.5, 1.3, 50.0))
+
     assert not ended(0.3, 500.0)  # too early: a touchdown right after lift-off is ignored
     assert ended(0.6, 80.0)
     assert not ended(0.9, 10.0)  # still in the air
-    assert ended(1.3, 0.0)  # time-out
+    assert not ended(0.9, 300.0, lifted=False)  # the foot never left the ground: no touchdown
+    assert ended(1.3, 0.0) and ended(1.3, 300.0, lifted=False)  # time-out

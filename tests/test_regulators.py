@@ -80,7 +80,7 @@ def _swing_foot_shift(env, data, joint, dq):
 
 def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
     env, data, obs, ctrl = standing
-    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_est=ctrl.v_est + jnp.array([0.4, 0.0]))
+    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_avg=ctrl.v_avg + jnp.array([0.4, 0.0]))
     j = env.robot.hip_pitch
     dq = du[gait.LEFT, j] / env.robot.kp[j]  # the right foot is in stance: the left leg swings
     assert abs(dq) > 1e-3
@@ -90,7 +90,7 @@ def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
 
 def test_drifting_left_places_the_swing_foot_further_left(standing):
     env, data, obs, ctrl = standing
-    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_est=ctrl.v_est + jnp.array([0.0, 0.3]))
+    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_avg=ctrl.v_avg + jnp.array([0.0, 0.3]))
     j = env.robot.hip_roll
     shift, _ = _swing_foot_shift(env, data, j, du[gait.LEFT, j] / env.robot.kp[j])
     assert shift[1] > 0
