@@ -8,7 +8,6 @@ killed mid-write leaves the previous checkpoint as the latest one.
 from __future__ import annotations
 
 import hashlib
-import json
 import logging
 from pathlib import Path
 from typing import Any
@@ -77,7 +76,3 @@ def check_compatible(meta: dict, robot: str, num_params: int, action_dim: int) -
         raise ConfigError(
             f"the checkpoint's policy has {meta.get('policy_params')} parameters and {meta.get('action_dim')} "
             f"actions; this config needs {num_params} and {action_dim}")
-
-
-def dumps(meta: dict) -> str:
-    return json.dumps(meta, sort_keys=True)

@@ -161,7 +161,6 @@ def cmd_train(args: argparse.Namespace) -> int:
     _xla.enable_compilation_cache()
     from mjx_cascade import train
 
-    out.mkdir(parents=True, exist_ok=True)
     summary = train.train(cfg, out, model_path=str(model) if model else None,
                           progress=None if not args.no_progress else False)
     print(json.dumps(summary))

@@ -128,21 +128,33 @@ def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock
         "backend": jax.default_backend(),
         "impl": env.impl,
         "jax_version": jax.__version__,
+        "reproducibility": "bitwise on the same devices and backend; on another device count or kind "
+                           "within floating-point tolerance",
         "config": to_dict(trainer.cfg),
     }
 
 
 def _truncate_metrics(path: Path, generation: int) -> None:
-    """Drop lines for generations after the checkpoint being resumed (a killed run may have written them)."""
+    """Keep the lines of generations up to the checkpoint being resumed: a killed run may have
+    logged later generations, or left half a line."""
     if not path.exists():
         return
-    keep = [line for line in path.read_text().splitlines() if line and json.loads(line)["generation"] <= generation]
+    keep = []
+    for line in path.read_text().splitlines():
+        try:
+            if json.loads(line)["generation"] <= generation:
+                keep.append(line)
+        except (json.JSONDecodeError, KeyError, TypeError):
+            continue
     path.write_text("".join(f"{line}\n" for line in keep))
 
 
 def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
           log: Callable[[str], None] | None = None) -> dict:
-    """Train (or resume) into `out`: `out/checkpoints/` and `out/metrics.jsonl`. Returns a summary."""
+    """Train (or resume) into `out`: `out/checkpoints/` and `out/metrics.jsonl`. Returns a summary.
+
+    Everything that can refuse the run (config, model, devices) is checked before `out` is created.
+    """
     out = Path(out)
     log = log or (lambda msg: print(msg, file=sys.stderr))
     trainer = setup(cfg, model_path)

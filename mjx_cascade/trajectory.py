@@ -16,7 +16,7 @@ def heading_velocity(qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np
 
 def tilt(qpos: np.ndarray) -> np.ndarray:
     """Angle between the pelvis z axis and the vertical."""
-    w, x, y = qpos[:, 3], qpos[:, 4], qpos[:, 5]
+    x, y = qpos[:, 4], qpos[:, 5]
     return np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))
 
 

@@ -4,7 +4,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjx_cascade import config, robots, standing
+from mjx_cascade import robots, standing
 from mjx_cascade.config import ConfigError
 from mjx_cascade.robots import scene
 from conftest import DIGIT_MODEL
@@ -45,7 +45,7 @@ def test_pool_states_stand_balanced_and_differ(cassie, cassie_pool, cassie_cfg):
     assert np.ptp(qpos[:, 2]) > 1e-3  # not one hand-set pose
     rpy = np.array([standing.quat_rpy(q[3:7]) for q in qpos])
     assert np.all(np.abs(rpy[:, :2]) < 0.1)
-    # each stays standing for another half second without any controller help beyond the pool's own
+    # and it stands on both feet
     m = cassie.model
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = qpos[0], qvel[0]
