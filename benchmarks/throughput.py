@@ -1,0 +1,139 @@
+"""Physics steps per second: the cascade controller in the loop, raw MJX, and CPU MuJoCo.
+
+    python benchmarks/throughput.py --robot cassie --out FILE.json [--batch B ...] [--steps T]
+
+For every MJX backend available on JAX's default device (`jax` always, `warp` on NVIDIA GPUs
+with mujoco-warp) and every batch size:
+- `controller_steps_per_s`: physics steps per second with the whole cascade controller, the
+  policy, the rewards and termination in the loop, exactly as training runs them (`Env.step`);
+- `physics_steps_per_s`: `mjx.step` alone on the same model, time step, solver and batch, zero
+  control;
+- `peak_memory_bytes`: the device's peak allocation (where JAX reports it).
+Plus `cpu_mujoco_steps_per_s`: MuJoCo's C `rollout` with one environment per CPU core (the
+paper's kind of setup), same model and time step. Each figure is the best of three timed runs
+after a compiling warm-up.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import mjx_cascade  # noqa: F401  (sets the XLA CPU flag before JAX starts)
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from mjx_cascade import config, physics, train
+from mjx_cascade.physics import mjx
+
+
+def best_of(fn, repeats: int = 3) -> float:
+    jax.block_until_ready(fn())  # compile and warm up
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        jax.block_until_ready(fn())
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def controller_rate(env, batch: int, steps: int) -> float:
+    params = jnp.broadcast_to(env.init_params, (batch,) + env.init_params.shape)
+    keys = jax.random.split(jax.random.PRNGKey(0), batch)
+    cmd = jnp.broadcast_to(jnp.array([0.3, 0.0, 0.0]), (batch, 3))
+    state = jax.jit(jax.vmap(env.reset))(params, keys, cmd)
+    step = jax.vmap(lambda p, s, c: env.step(p, s, c))
+
+    @jax.jit
+    def run(state):
+        return jax.lax.scan(lambda s, _: (step(params, s, cmd), None), state, None, length=steps)[0]
+
+    return batch * steps / best_of(lambda: run(state))
+
+
+def physics_rate(env, batch: int, steps: int) -> float:
+    data = env.data_template.replace(qpos=jnp.asarray(env.pool_qpos[0]), qvel=jnp.asarray(env.pool_qvel[0]))
+    data = jax.jit(jax.vmap(lambda _: mjx.forward(env.model, data)))(jnp.arange(batch))
+    step = jax.vmap(lambda d: mjx.step(env.model, d))
+
+    @jax.jit
+    def run(data):
+        return jax.lax.scan(lambda d, _: (step(d), None), data, None, length=steps)[0]
+
+    return batch * steps / best_of(lambda: run(data))
+
+
+def cpu_mujoco_rate(env, steps: int) -> tuple[float, int]:
+    model = env.robot.model
+    cores = os.cpu_count() or 1
+    datas = [mujoco.MjData(model) for _ in range(cores)]
+    nstate = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    d = mujoco.MjData(model)
+    d.qpos[:], d.qvel[:] = np.asarray(env.pool_qpos[0]), np.asarray(env.pool_qvel[0])
+    state0 = np.empty(nstate)
+    mujoco.mj_getState(model, d, state0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    initial = np.tile(state0, (cores, 1))
+    control = np.zeros((cores, steps, model.nu))
+    with mj_rollout.Rollout(nthread=cores) as pool:
+        pool.rollout([model] * cores, datas, initial, control)  # warm-up
+        best = min(_timed(lambda: pool.rollout([model] * cores, datas, initial, control)) for _ in range(3))
+    return cores * steps / best, cores
+
+
+def _timed(fn) -> float:
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
+
+
+def peak_memory() -> int | None:
+    stats = jax.devices()[0].memory_stats() or {}
+    return stats.get("peak_bytes_in_use")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--robot", default="cassie", choices=config.ROBOTS)
+    p.add_argument("--out", required=True)
+    p.add_argument("--batch", type=int, nargs="+", default=None)
+    p.add_argument("--steps", type=int, default=200)
+    p.add_argument("--impl", choices=("jax", "warp"), nargs="+", default=None)
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    args = p.parse_args(argv)
+
+    gpu = jax.default_backend() == "gpu"
+    batches = args.batch or ([256, 1024, 4096, 16384] if gpu else [16, 64, 128])
+    impls = args.impl or (["jax", "warp"] if physics.warp_available() else ["jax"])
+    cfg = config.robot_config(args.robot).override(**dict(item.split("=", 1) for item in args.set))
+    result = {"device": jax.devices()[0].device_kind, "backend": jax.default_backend(), "robot": args.robot,
+              "dt": cfg.physics.dt, "steps": args.steps, "rows": []}
+    for impl in impls:
+        for batch in batches:
+            env = train.make_env(cfg.override(**{"physics.impl": impl}), batch=batch)
+            row = {"impl": impl, "batch": batch,
+                   "controller_steps_per_s": controller_rate(env, batch, args.steps),
+                   "physics_steps_per_s": physics_rate(env, batch, args.steps),
+                   "peak_memory_bytes": peak_memory()}
+            result["rows"].append(row)
+            print(json.dumps(row), file=sys.stderr, flush=True)
+    result["cpu_mujoco_steps_per_s"], result["cpu_cores"] = cpu_mujoco_rate(env, max(args.steps, 1000))
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+    print(f"{'impl':6} {'batch':>7} {'controller/s':>14} {'physics/s':>12} {'ratio':>6}")
+    for r in result["rows"]:
+        ratio = r["controller_steps_per_s"] / r["physics_steps_per_s"]
+        print(f"{r['impl']:6} {r['batch']:7d} {r['controller_steps_per_s']:14,.0f} {r['physics_steps_per_s']:12,.0f} "
+              f"{ratio:6.2f}")
+    print(f"CPU MuJoCo rollout, {result['cpu_cores']} cores: {result['cpu_mujoco_steps_per_s']:,.0f} steps/s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
