@@ -88,7 +88,7 @@ def _emit(payload: dict, as_json: bool) -> None:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from mjx_cascade import checkpoint, policy, robots
+    from mjx_cascade import checkpoint, robots
 
     if args.checkpoint:
         meta, params = checkpoint.read(args.checkpoint)
@@ -108,13 +108,12 @@ def cmd_info(args: argparse.Namespace) -> int:
     cfg = config_lib.robot_config(args.robot)
     definition = robots.get(args.robot)
     model = robots.model_path(definition, args.model) if (args.model or not definition.model_required) else None
-    n = len(definition.learned)
-    actions = policy.action_dim(n, cfg.gait.bezier_order)
+    actions, params = policy_shape(definition, cfg)
     _emit({
         "robot": args.robot,
         "state_dim": 6,
         "action_dim": actions,
-        "policy_params": policy.param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units),
+        "policy_params": params,
         "learned_joints": [f"{role}_{joint}" for role, joint in definition.learned],
         "bezier_order": cfg.gait.bezier_order,
         "dt": cfg.physics.dt,
@@ -123,6 +122,14 @@ def cmd_info(args: argparse.Namespace) -> int:
         "model": str(model) if model else "default",
     }, args.json)
     return 0
+
+
+def policy_shape(definition, cfg: config_lib.Config) -> tuple[int, int]:
+    """`(actions, parameters)` of the robot's motion policy under `cfg` (Table 1), without building anything."""
+    from mjx_cascade import policy
+
+    actions = policy.action_dim(len(definition.learned), cfg.gait.bezier_order)
+    return actions, policy.param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units)
 
 
 def training_config(args: argparse.Namespace) -> config_lib.Config:
@@ -142,7 +149,7 @@ def training_config(args: argparse.Namespace) -> config_lib.Config:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from mjx_cascade import _xla, checkpoint, policy, robots
+    from mjx_cascade import _xla, checkpoint, robots
 
     cfg = training_config(args)
     definition = robots.get(cfg.robot)
@@ -152,8 +159,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise ConfigError(f"--out {out} exists and is not a directory")
     if (out / "checkpoints").is_dir() and checkpoint.is_checkpoint_dir(out / "checkpoints"):
         meta, _ = checkpoint.read(out)
-        actions = policy.action_dim(len(definition.learned), cfg.gait.bezier_order)
-        params = policy.param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units)
+        actions, params = policy_shape(definition, cfg)
         checkpoint.check_compatible(meta, cfg.robot, params, actions)
     from mjx_cascade import physics
 

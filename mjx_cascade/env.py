@@ -25,6 +25,7 @@ from mjx_cascade.config import Config
 from mjx_cascade.physics import make_data, mjx, put_model, resolve_impl
 from mjx_cascade.robots import scene
 from mjx_cascade.robots.base import Robot
+from mjx_cascade.rotations import quat_to_rpy
 
 GROUND_FILTER = 0.2  # s, time constant of the terrain slope estimate
 
@@ -70,14 +71,6 @@ class Obs(NamedTuple):
     ground: Array  # terrain height under the pelvis
 
 
-def quat_to_rpy(q: Array) -> Array:
-    w, x, y, z = q[0], q[1], q[2], q[3]
-    roll = jnp.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = jnp.arcsin(jnp.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = jnp.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return jnp.stack([roll, pitch, yaw])
-
-
 def foot_angles(rot: Array, flat: Array, yaw: Array) -> Array:
     """(pitch, roll) of a foot relative to its flat standing orientation, in the heading frame."""
     e = rot @ flat.T  # rotation taking the flat foot to the current one
@@ -115,7 +108,7 @@ class Env:
     # ------------------------------------------------------------------ measurement
     def observe(self, data: mjx.Data) -> Obs:
         r = self.robot
-        rpy = quat_to_rpy(data.qpos[3:7])
+        rpy = quat_to_rpy(data.qpos[3:7], jnp)
         feet_rot = data.xmat[r.foot_body]
         root_com = data.subtree_com[r.pelvis_body]
         cvel = data.cvel[r.foot_body]

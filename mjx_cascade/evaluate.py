@@ -18,7 +18,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from mjx_cascade import checkpoint, plots, policies
-from mjx_cascade.trajectory import heading_velocity, moving_average, tilt
+from mjx_cascade.rotations import tilt
+from mjx_cascade.trajectory import heading_velocity, moving_average
 from mjx_cascade.config import Config, ConfigError, from_dict
 from mjx_cascade.scenario import Scenario
 from mjx_cascade.train import make_env
@@ -90,7 +91,7 @@ def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, 
     t, qpos, qvel, cmd = (np.asarray(traj[k]) for k in ("t", "qpos", "qvel", "cmd"))
     ground = np.asarray(traj["ground"]) if "ground" in traj else np.zeros_like(t)
     height = qpos[:, 2] - ground
-    fallen = (height < FALL_HEIGHT) | (tilt(qpos) > FALL_TILT) | ~np.all(np.isfinite(qpos), axis=1)
+    fallen = (height < FALL_HEIGHT) | (tilt(qpos[:, 3:7]) > FALL_TILT) | ~np.all(np.isfinite(qpos), axis=1)
     v, yaw = heading_velocity(qpos, qvel)
     v_avg = moving_average(v, t, window)
     change = np.nonzero(np.any(np.diff(cmd, axis=0) != 0, axis=1))[0] + 1

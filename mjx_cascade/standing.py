@@ -20,18 +20,10 @@ import numpy as np
 from mjx_cascade import regulators
 from mjx_cascade.config import Config
 from mjx_cascade.robots.base import Robot
+from mjx_cascade.rotations import quat_to_rpy
 
 COM_GAIN, COM_DAMPING = 300.0, 30.0  # foot pitch torque per m and per m/s of CoM offset
 ROLL_GAIN, ROLL_DAMPING = 3.0, 0.3  # knee angle per rad and per rad/s of pelvis roll
-
-
-def quat_rpy(q: np.ndarray) -> np.ndarray:
-    """Roll, pitch, yaw (x-y-z extrinsic, i.e. z-y-x intrinsic) of a unit quaternion (w, x, y, z)."""
-    w, x, y, z = q
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
 
 
 def balanced_pool(robot: Robot, cfg: Config, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -75,7 +67,7 @@ def _settle(robot: Robot, cfg: Config, offset: np.ndarray) -> tuple[np.ndarray, 
 
 
 def _control(robot: Robot, cfg: Config, d: mujoco.MjData, target: np.ndarray, side: np.ndarray) -> np.ndarray:
-    rpy = quat_rpy(d.qpos[3:7])
+    rpy = quat_to_rpy(d.qpos[3:7])
     omega = d.qvel[3:6]
     target = target.copy()
     roll_fix = ROLL_GAIN * rpy[0] + ROLL_DAMPING * omega[0]
@@ -99,7 +91,7 @@ def _control(robot: Robot, cfg: Config, d: mujoco.MjData, target: np.ndarray, si
 
 
 def _balanced(robot: Robot, cfg: Config, d: mujoco.MjData) -> bool:
-    rpy = quat_rpy(d.qpos[3:7])
+    rpy = quat_to_rpy(d.qpos[3:7])
     force = d.sensordata[robot.foot_force_adr]
     lo, hi = cfg.termination.height
     return bool(

@@ -4,20 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjx_cascade.rotations import quat_to_rpy
+
 
 def heading_velocity(qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """`(v [T, 2] pelvis velocity in the heading frame, yaw [T])` from MuJoCo's free-joint state."""
-    w, x, y, z = qpos[:, 3], qpos[:, 4], qpos[:, 5], qpos[:, 6]
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    yaw = quat_to_rpy(qpos[:, 3:7])[:, 2]
     c, s = np.cos(yaw), np.sin(yaw)
     vx, vy = qvel[:, 0], qvel[:, 1]
     return np.stack([c * vx + s * vy, -s * vx + c * vy], axis=1), yaw
-
-
-def tilt(qpos: np.ndarray) -> np.ndarray:
-    """Angle between the pelvis z axis and the vertical."""
-    x, y = qpos[:, 4], qpos[:, 5]
-    return np.arccos(np.clip(1 - 2 * (x * x + y * y), -1.0, 1.0))
 
 
 def moving_average(x: np.ndarray, t: np.ndarray, window: float) -> np.ndarray:

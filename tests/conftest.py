@@ -13,9 +13,12 @@ SHARED = ROOT.parent / "shared"
 DIGIT_MODEL = SHARED / "models" / "digit" / "digit-v3.xml"
 DATA = Path(__file__).parent / "data"
 
-# Offline: mujoco-menagerie reads Cassie from the shared copy instead of downloading it.
+# Offline: mujoco-menagerie reads Cassie from the shared copy instead of downloading it. A relative
+# MENAGERIE_ROOT (the README's test command) is made absolute for subprocesses with other cwds.
 if (SHARED / "menagerie").is_dir():
     os.environ.setdefault("MENAGERIE_ROOT", str(SHARED / "menagerie"))
+if os.environ.get("MENAGERIE_ROOT"):
+    os.environ["MENAGERIE_ROOT"] = str(Path(os.environ["MENAGERIE_ROOT"]).resolve())
 
 
 @pytest.fixture(scope="session", autouse=True)
