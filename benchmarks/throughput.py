@@ -30,7 +30,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from mjx_cascade import config, physics, train
+from mjx_cascade import config, physics
+from mjx_cascade.env import make_env
 from mjx_cascade.physics import mjx
 
 
@@ -116,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
               "dt": cfg.physics.dt, "steps": args.steps, "rows": []}
     for impl in impls:
         for batch in batches:
-            env = train.make_env(cfg.override(**{"physics.impl": impl}), batch=batch)
+            env = make_env(cfg.override(**{"physics.impl": impl}), batch=batch)
             row = {"impl": impl, "batch": batch,
                    "controller_steps_per_s": controller_rate(env, batch, args.steps),
                    "physics_steps_per_s": physics_rate(env, batch, args.steps),

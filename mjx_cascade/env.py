@@ -19,7 +19,7 @@ import numpy as np
 from flax import struct
 from jax import Array
 
-from mjx_cascade import bezier, features, gait, pd, regulators, rewards
+from mjx_cascade import bezier, features, gait, pd, regulators, rewards, robots, standing
 from mjx_cascade import policy as policy_lib
 from mjx_cascade.config import Config
 from mjx_cascade.physics import make_data, mjx, put_model, resolve_impl
@@ -288,3 +288,13 @@ class Env:
     def fitness(self, state: EnvState) -> Array:
         """Episode return per second of the full episode: the normalised mean reward (Fig. 6)."""
         return state.ret / (self.episode_steps * self.dt)
+
+
+def make_env(cfg: Config, batch: int = 1, model_path: str | None = None, terrain: dict | None = None) -> Env:
+    """Build the robot for `cfg` (and a terrain), its balanced initial states, and the environment.
+
+    `batch` sizes MJX warp's contact buffer for that many parallel environments.
+    """
+    robot = robots.build(robots.get(cfg.robot), cfg, model_path, terrain)
+    pool = standing.balanced_pool(robot, cfg, seed=cfg.seed)
+    return Env(robot, cfg, pool, batch=batch, terrain=terrain)

@@ -22,7 +22,7 @@ from mjx_cascade.rotations import tilt
 from mjx_cascade.trajectory import heading_velocity, moving_average
 from mjx_cascade.config import Config, ConfigError, from_dict
 from mjx_cascade.scenario import Scenario
-from mjx_cascade.train import make_env
+from mjx_cascade.env import make_env
 
 RECORD_PERIOD = 0.01  # s
 FALL_HEIGHT, FALL_TILT = 0.6, 0.6

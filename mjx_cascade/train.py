@@ -21,9 +21,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec
 
-from mjx_cascade import checkpoint, es, robots, standing
+from mjx_cascade import checkpoint, es
 from mjx_cascade.config import Config, ConfigError, to_dict
-from mjx_cascade.env import Env
+from mjx_cascade.env import Env, make_env
 from mjx_cascade.rollout import run_episodes
 
 METRICS = "metrics.jsonl"
@@ -40,12 +40,6 @@ class Trainer:
     @property
     def num_params(self) -> int:
         return int(self.state.mean.shape[0])
-
-
-def make_env(cfg: Config, batch: int, model_path: str | None = None, terrain: dict | None = None) -> Env:
-    robot = robots.build(robots.get(cfg.robot), cfg, model_path, terrain)
-    pool = standing.balanced_pool(robot, cfg, seed=cfg.seed)
-    return Env(robot, cfg, pool, batch=batch, terrain=terrain)
 
 
 def population_sharding() -> tuple[NamedSharding, int]:
