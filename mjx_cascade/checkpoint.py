@@ -68,10 +68,14 @@ def read(path: str | Path) -> tuple[dict, np.ndarray]:
     return meta, np.asarray(state["mean"], dtype=np.float32)
 
 
-def check_compatible(meta: dict, robot: str, num_params: int, action_dim: int) -> None:
-    """A checkpoint for another robot or policy shape cannot be resumed or evaluated here."""
+def check_robot(meta: dict, robot: str) -> None:
     if meta.get("robot") != robot:
         raise ConfigError(f"the checkpoint is for robot {meta.get('robot')!r}, not {robot!r}")
+
+
+def check_compatible(meta: dict, robot: str, num_params: int, action_dim: int) -> None:
+    """A checkpoint for another robot or policy shape cannot be resumed here."""
+    check_robot(meta, robot)
     if meta.get("policy_params") != num_params or meta.get("action_dim") != action_dim:
         raise ConfigError(
             f"the checkpoint's policy has {meta.get('policy_params')} parameters and {meta.get('action_dim')} "

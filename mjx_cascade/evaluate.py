@@ -33,8 +33,7 @@ def load_policy(robot: str, checkpoint_dir: str | None) -> tuple[Config, np.ndar
     """`(training config, flat parameters, metadata)` from a checkpoint, or the shipped policy."""
     if checkpoint_dir:
         meta, params = checkpoint.read(checkpoint_dir)
-        if meta.get("robot") != robot:
-            raise ConfigError(f"the checkpoint is for robot {meta.get('robot')!r}, not {robot!r}")
+        checkpoint.check_robot(meta, robot)
     else:
         meta, params = policies.load(robot)
     # the backend it trained on says nothing about where it runs now

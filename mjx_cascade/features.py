@@ -13,11 +13,14 @@ from jax import Array
 STATE_DIM = 6
 
 
-def to_heading_frame(v_world_xy: Array, yaw: Array) -> Array:
-    """Rotate a world-frame horizontal vector into the frame turned by `yaw` about z."""
-    c, s = jnp.cos(yaw), jnp.sin(yaw)
+def to_heading_frame(v_world_xy, yaw, xp=jnp):
+    """Rotate world-frame horizontal vectors `[..., 2]` into the frame turned by `yaw` about z.
+
+    `xp` is the array module: `jax.numpy` in the controller, NumPy for recorded trajectories.
+    """
+    c, s = xp.cos(yaw), xp.sin(yaw)
     x, y = v_world_xy[..., 0], v_world_xy[..., 1]
-    return jnp.stack([c * x + s * y, -s * x + c * y], axis=-1)
+    return xp.stack([c * x + s * y, -s * x + c * y], axis=-1)
 
 
 def features(v_desired: Array, v_average: Array) -> Array:

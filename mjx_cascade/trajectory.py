@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjx_cascade.features import to_heading_frame
 from mjx_cascade.rotations import quat_to_rpy
 
 
 def heading_velocity(qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """`(v [T, 2] pelvis velocity in the heading frame, yaw [T])` from MuJoCo's free-joint state."""
     yaw = quat_to_rpy(qpos[:, 3:7])[:, 2]
-    c, s = np.cos(yaw), np.sin(yaw)
-    vx, vy = qvel[:, 0], qvel[:, 1]
-    return np.stack([c * vx + s * vy, -s * vx + c * vy], axis=1), yaw
+    return to_heading_frame(qvel[:, :2], yaw, np), yaw
 
 
 def moving_average(x: np.ndarray, t: np.ndarray, window: float) -> np.ndarray:
