@@ -36,11 +36,11 @@ class ControllerState(struct.PyTreeNode):
     alpha: Array  # [N, M + 1] Bezier coefficients of the learned joints, role coordinates
     v_sum: Array  # [2] sum of heading-frame pelvis velocities over the current step
     v_count: Array  # physics steps in the current step
-    v_avg: Array  # [2] average velocity over the last completed step (vbar of eq. 25 and the features)
-    v_last: Array  # [2] average over the step before it (v^ls of eq. 25)
+    v_avg: Array  # [2] average velocity over the last completed step (the features; v^ls of eq. 25)
     beta: Array  # [2] PI drift terms (beta_x, beta_y)
     ground: Array  # [2] terrain (pitch, roll) estimated from the stance foot
     lifted: Array  # the swing foot has been unloaded during this step
+    hold: Array  # [2] stance hip (roll, pitch) angles at the step start, held while the foot loads
     steps: Array  # walking steps completed
 
 
@@ -158,10 +158,10 @@ class Env:
             v_sum=zeros2,
             v_count=jnp.zeros(()),
             v_avg=zeros2,
-            v_last=zeros2,
             beta=zeros2,
             ground=zeros2,
             lifted=jnp.zeros((), bool),
+            hold=obs.q[stance, jnp.array([self.robot.hip_roll, self.robot.hip_pitch])],
             steps=jnp.zeros((), jnp.int32),
         )
         false = jnp.zeros((), bool)
@@ -174,6 +174,8 @@ class Env:
         r, cfg = self.robot, self.cfg
         g, reg = cfg.gait, cfg.regulators
         cmd_v, cmd_yaw = cmd[:2], cmd[2]
+
+        hips = jnp.array([r.hip_roll, r.hip_pitch])
 
         # walking-step bookkeeping and the stance switch (Sec. III-C)
         tau = (time - c.step_start) / g.step_time
@@ -193,9 +195,9 @@ class Env:
             v_sum=jnp.where(ended, 0.0, v_sum),
             v_count=jnp.where(ended, 0.0, v_count),
             v_avg=v_avg,
-            v_last=jnp.where(ended, c.v_avg, c.v_last),
             beta=jnp.where(ended, regulators.drift_update(c.beta, v_step, cmd_v, reg), c.beta),
             lifted=lifted & ~ended,
+            hold=jnp.where(ended, obs.q[stance, hips], c.hold),
             steps=c.steps + ended.astype(jnp.int32),
         )
         tau = jnp.where(ended, 0.0, tau)
@@ -205,7 +207,8 @@ class Env:
         y, yd = bezier.evaluate(c.alpha, tau, g.step_time)
         ref = jnp.asarray(r.nominal_role, jnp.float32).at[r.learned_role, r.learned_joint].set(y)
         ref_v = jnp.zeros_like(ref).at[r.learned_role, r.learned_joint].set(yd)
-        place = regulators.swing_placement(c.v_avg, cmd_v, c.v_last, c.beta, tau, reg)
+        v_now = c.v_sum / jnp.maximum(c.v_count, 1.0)  # vbar of eq. 25: this step's average so far
+        place = regulators.swing_placement(v_now, cmd_v, c.v_avg, c.beta, tau, reg)
         turn = regulators.heading(obs.rpy[2], cmd_yaw, tau, reg)
         ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
@@ -225,11 +228,14 @@ class Env:
         ref = ref.at[:, r.toe].set(obs.q[:, r.toe] + toe_step)
         ref_v = ref_v.at[:, r.toe].set(0.0)
 
-        # joint PD (eq. 21), then the torso torques replace it on the stance hip roll and pitch
+        # joint PD (eq. 21); the torso torques take over the stance hip roll and pitch from a
+        # PD hold of their touchdown angles as the new stance foot loads (phase blend)
+        ref = ref.at[stance, hips].set(c.hold)
+        ref_v = ref_v.at[stance, hips].set(0.0)
         u = pd.pd_torque(obs.q, obs.qd, ref, ref_v, r.kp, r.kd)
-        torso = regulators.torso_torque(obs.rpy, obs.omega, reg)
-        hips = jnp.array([r.hip_roll, r.hip_pitch])
-        u = u.at[stance, hips].set(jnp.asarray(r.torso_sign)[stance] * torso * self._side[stance, hips])
+        torso = jnp.asarray(r.torso_sign)[stance] * regulators.torso_torque(obs.rpy, obs.omega, reg) * self._side[stance, hips]
+        b = regulators.blend(tau, reg)
+        u = u.at[stance, hips].set((1.0 - b) * u[stance, hips] + b * torso)
         return u, ended, c
 
     # ------------------------------------------------------------------ step

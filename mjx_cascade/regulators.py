@@ -5,9 +5,10 @@ kinematic signs (derived from its model, `robots/base.py`) that turn "move the s
 forward / outward" or "pitch the pelvis back" into joint-space signs. This replaces the
 paper's hand-set S_y and S_theta (eq. 24 and Sec. IV-B) for any leg geometry.
 
-Velocities are in the heading frame: `v_avg` is the pelvis velocity averaged over the last
-completed step (vbar of eq. 25), `v_des` the command and `v_last` the average over the step
-before it (v^ls), so the compensations are constant within a step and ignore the sway inside it.
+Velocities are in the heading frame: `v_avg` is the pelvis velocity averaged over the current
+step so far (vbar of eq. 25), `v_des` the command and `v_last` the average over the previous step
+(v^ls). Deviation: averaging vbar over the previous step instead left the first step from standing
+uncorrected, and the robot fell towards the swing side before any placement acted.
 """
 
 from __future__ import annotations

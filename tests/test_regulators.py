@@ -66,6 +66,11 @@ def _torque_change(env, obs, ctrl, cmd, **change):
     return np.asarray(moved - base)
 
 
+def _moving(ctrl, v, steps=100.0):
+    """Controller state whose current walking step has averaged velocity `v` so far."""
+    return dict(v_sum=ctrl.v_sum + steps * jnp.asarray(v), v_count=ctrl.v_count + steps)
+
+
 def _swing_foot_shift(env, data, joint, dq):
     m, r = env.robot.model, env.robot
     d = mujoco.MjData(m)
@@ -80,7 +85,7 @@ def _swing_foot_shift(env, data, joint, dq):
 
 def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
     env, data, obs, ctrl = standing
-    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_avg=ctrl.v_avg + jnp.array([0.4, 0.0]))
+    du = _torque_change(env, obs, ctrl, jnp.zeros(3), **_moving(ctrl, [0.4, 0.0]))
     j = env.robot.hip_pitch
     dq = du[gait.LEFT, j] / env.robot.kp[j]  # the right foot is in stance: the left leg swings
     assert abs(dq) > 1e-3
@@ -90,7 +95,7 @@ def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
 
 def test_drifting_left_places_the_swing_foot_further_left(standing):
     env, data, obs, ctrl = standing
-    du = _torque_change(env, obs, ctrl, jnp.zeros(3), v_avg=ctrl.v_avg + jnp.array([0.0, 0.3]))
+    du = _torque_change(env, obs, ctrl, jnp.zeros(3), **_moving(ctrl, [0.0, 0.3]))
     j = env.robot.hip_roll
     shift, _ = _swing_foot_shift(env, data, j, du[gait.LEFT, j] / env.robot.kp[j])
     assert shift[1] > 0
@@ -122,3 +127,24 @@ def test_torso_torques_right_the_pelvis(standing):
         jnt = int(np.nonzero(m.jnt_qposadr == r.qpos_adr[stance, joint])[0][0])
         on_pelvis = -float(u[stance, joint]) * d.xaxis[jnt]  # a joint torque's reaction on its parent
         assert on_pelvis[axis] < 0, (axis, on_pelvis)
+
+
+def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
+    """At touchdown the new stance hip holds its angles (a torso torque there would swing the
+    still unloaded leg); after the blend phase the torso regulator alone sets its torques."""
+    env, data, obs, ctrl = standing
+    r, reg = env.robot, env.cfg.regulators
+    hips = np.array([r.hip_roll, r.hip_pitch])
+    tilted = obs._replace(rpy=obs.rpy + jnp.array([0.1, 0.1, 0.0]), omega=jnp.zeros(3), qd=jnp.zeros_like(obs.qd))
+    held = ctrl.replace(hold=obs.q[gait.RIGHT, hips] + 0.05)
+
+    def stance_hips(step_start):
+        u, ended, _ = env.control(env.init_params, held.replace(step_start=jnp.float32(step_start)), tilted,
+                                  jnp.float32(0.0), jnp.zeros(3))
+        assert not bool(ended)
+        return np.asarray(u[gait.RIGHT, hips])
+
+    np.testing.assert_allclose(stance_hips(0.0), r.kp[hips] * 0.05, rtol=1e-4)
+    late = -reg.blend_phase * env.cfg.gait.step_time - 0.01
+    torso = np.asarray(regulators.torso_torque(tilted.rpy, tilted.omega, reg))
+    np.testing.assert_allclose(np.abs(stance_hips(late)), np.abs(torso), rtol=1e-4)

@@ -1,12 +1,16 @@
 """The robot definitions, the physics scene and the balanced initial states."""
 
+import copy
+import time
+
 import mujoco
 import numpy as np
 import pytest
 
-from mjx_cascade import robots
+from mjx_cascade import config, robots, standing
 from mjx_cascade.config import ConfigError
-from mjx_cascade.robots import scene
+from mjx_cascade.robots import digit as digit_lib
+from mjx_cascade.robots import linkage, scene
 from mjx_cascade.rotations import quat_to_rpy
 from conftest import DIGIT_MODEL
 
@@ -26,6 +30,8 @@ def test_cassie_derived_signs(cassie):
     np.testing.assert_array_equal(cassie.lateral_sign, [1, -1])  # the feet move outward with +roll
     assert np.all(cassie.forward_sign == 1) and np.all(cassie.knee_extension == 1)
     assert cassie.torque_limit[0].tolist() == pytest.approx([112.5, 112.5, 195.2, 195.2, 45.0])
+    # the foot motor turns the foot directly, toe down when it turns negative (plantar rod following)
+    np.testing.assert_allclose(cassie.toe_jac[..., 0], [[-1.0, 0.0], [-1.0, 0.0]], atol=1e-3)
 
 
 def test_touch_sensor_reads_the_ground_reaction_force(cassie, cassie_pool):
@@ -77,3 +83,88 @@ def test_digit_definition_and_model_checks():
         robots.model_path(digit, "/no/such/digit.xml")
     with pytest.raises(ConfigError, match="not a digit model"):
         robots.model_path(digit, str(DIGIT_MODEL.parents[2] / "menagerie" / "agility_cassie" / "cassie.xml"))
+
+
+@pytest.fixture(scope="module")
+def digit_cfg():
+    return config.robot_config("digit").override(**{"episode.pool_size": 4})
+
+
+@pytest.fixture(scope="module")
+def digit(digit_cfg):
+    return robots.build(robots.get("digit"), digit_cfg, str(DIGIT_MODEL))
+
+
+def test_digit_nominal_stands_flat_with_closed_chains(digit):
+    m = digit.model
+    start = time.perf_counter()
+    qpos = digit.definition.nominal(m)
+    assert time.perf_counter() - start < 1.0
+    np.testing.assert_array_equal(qpos, digit.nominal_qpos)  # deterministic
+    d = mujoco.MjData(m)
+    d.qpos[:] = qpos
+    mujoco.mj_fwdPosition(m, d)
+    residual, _ = linkage.equality(m, d)
+    assert len(residual) == 18 and np.abs(residual).max() < 1e-8  # six connect constraints closed
+    for side in ("left", "right"):
+        sole = m.body(f"{side}-foot").id
+        np.testing.assert_allclose(d.xmat[sole].reshape(3, 3)[:, 2], [0, 0, 1], atol=1e-6)  # flat
+        assert d.xpos[sole, 0] == pytest.approx(d.subtree_com[1, 0], abs=1e-6)  # under the CoM
+        for spring in ("shin", "heel-spring"):
+            assert qpos[m.joint(f"{side}-{spring}").qposadr[0]] == 0.0  # unloaded springs at rest
+    assert digit_lib._lowest_foot_point(m, qpos) == pytest.approx(0.0, abs=1e-9)
+    assert 0.95 < qpos[2] < 1.1 and 0.2 < digit.nominal_role[0, digit.knee] < 0.6  # knees bent
+    np.testing.assert_array_equal(digit.mirror, -1)  # Agility mirrors every right joint
+    np.testing.assert_allclose(qpos[digit.qpos_adr[1]], -qpos[digit.qpos_adr[0]])
+    feet = d.xpos[digit.foot_body]
+    assert 0.2 < feet[0, 1] - feet[1, 1] < 0.4  # inside the feet-distance band of eq. 27
+
+
+def _toe_response(robot, leg: int, dq_role: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(measured toe motor change, foot (pitch, roll) change), role coordinates, when joint PD moves
+    the toe motors of `leg` by `dq_role` with MuJoCo's constraint solver closing the rods: the
+    robot floats without gravity or contacts, and the foot is measured relative to the pelvis."""
+    m = copy.deepcopy(robot.model)
+    m.opt.gravity[:] = 0.0
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    d = mujoco.MjData(m)
+    d.qpos[:] = robot.nominal_qpos
+    side = np.stack([np.ones_like(robot.mirror), robot.mirror])
+    target = robot.nominal_role * side
+    target[leg, robot.toe] += dq_role * side[leg, robot.toe]
+
+    def foot():
+        return d.xmat[robot.pelvis_body].reshape(3, 3).T @ d.xmat[robot.foot_body[leg]].reshape(3, 3)
+
+    mujoco.mj_forward(m, d)
+    rot0, q0 = foot(), d.qpos[robot.qpos_adr[leg, robot.toe]].copy()
+    for _ in range(600):  # 0.3 s
+        u = 500.0 * (target - d.qpos[robot.qpos_adr]) - 10.0 * d.qvel[robot.dof_adr]
+        d.ctrl[robot.actuator] = np.clip(u / robot.gear, robot.ctrl_low, robot.ctrl_high)
+        mujoco.mj_step(m, d)
+    e = foot() @ rot0.T
+    angles = np.array([np.arcsin(-e[2, 0]), np.arcsin(e[2, 1])])  # as env.foot_angles at zero yaw
+    dq = (d.qpos[robot.qpos_adr[leg, robot.toe]] - q0) * side[leg, robot.toe]
+    return dq, angles
+
+
+@pytest.mark.parametrize("leg", [0, 1])
+def test_digit_toe_map_matches_the_simulated_linkage(digit, leg):
+    for dq_cmd in ([0.05, 0.0], [0.0, 0.05], [0.04, -0.03]):
+        dq, angles = _toe_response(digit, leg, np.array(dq_cmd))
+        predicted = digit.toe_jac[leg] @ dq
+        assert np.linalg.norm(angles - predicted) < 0.2 * np.linalg.norm(predicted), (dq_cmd, angles, predicted)
+
+
+@pytest.mark.parametrize("leg", [0, 1])
+def test_digit_toe_pinv_gives_pitch_or_roll_alone(digit, leg):
+    pitch = _toe_response(digit, leg, digit.toe_pinv[leg] @ np.array([0.05, 0.0]))[1]
+    roll = _toe_response(digit, leg, digit.toe_pinv[leg] @ np.array([0.0, 0.05]))[1]
+    assert pitch[0] == pytest.approx(0.05, rel=0.2) and abs(pitch[1]) < 0.2 * pitch[0]
+    assert roll[1] == pytest.approx(0.05, rel=0.2) and abs(roll[0]) < 0.2 * roll[1]
+
+
+def test_digit_pool_stands_balanced(digit, digit_cfg):
+    qpos, qvel = standing.balanced_pool(digit, digit_cfg)
+    assert qpos.shape == (4, digit.model.nq) and np.all(np.abs(qvel) < 0.5)
+    assert np.all(np.abs(quat_to_rpy(qpos[:, 3:7])[:, :2]) < 0.1)

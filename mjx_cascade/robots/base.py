@@ -6,7 +6,9 @@ load the model. `build()` compiles the model for the physics settings of a confi
 derives, numerically from the model at the nominal pose, every sign the regulators need:
 the mirror convention of each joint (the symmetry map T, eq. 12), which way each hip joint
 moves the foot, which way each stance hip joint torques the pelvis, and the Jacobian of the
-foot's pitch and roll with respect to the toe motors. Shared code reads only these arrays.
+foot's pitch and roll with respect to the toe motors. Every derivation moves one motor with
+the closed chains' passive joints following it (`linkage`): Digit's toe motors reach the
+foot only through rods. Shared code reads only these arrays.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from mjx_cascade import gait
 from mjx_cascade.config import Config, ConfigError
-from mjx_cascade.robots import scene
+from mjx_cascade.robots import linkage, scene
 
 # What the controller does with each (role, leg joint) slot.
 HOLD, LEARNED, TOE, TORSO = 0, 1, 2, 3
@@ -167,7 +169,8 @@ def derive(definition: RobotDefinition, model: mujoco.MjModel) -> Robot:
 
     pelvis = model.body(d.pelvis).id
     feet = np.array([model.body(f).id for f in d.feet])
-    fd = _foot_kinematics(model, data, feet, pelvis, qpos_adr, side_sign, hip_roll, hip_pitch, hip_yaw,
+    dof_adr = model.jnt_dofadr[jnt]
+    fd = _foot_kinematics(model, data, feet, pelvis, qpos_adr, dof_adr, side_sign, hip_roll, hip_pitch, hip_yaw,
                           joint_index["knee"], toe)
     foot_force_adr = np.array([model.sensor_adr[model.sensor(f"{d.feet[leg]}-grf").id] for leg in range(2)])
 
@@ -175,7 +178,7 @@ def derive(definition: RobotDefinition, model: mujoco.MjModel) -> Robot:
         definition=d,
         model=model,
         qpos_adr=qpos_adr,
-        dof_adr=model.jnt_dofadr[jnt],
+        dof_adr=dof_adr,
         actuator=act,
         gear=gear,
         ctrl_low=ctrl[..., 0],
@@ -215,15 +218,17 @@ def _mirror_signs(data: mujoco.MjData, jnt: np.ndarray) -> np.ndarray:
     return np.sign(np.sum(image * axes[1], axis=-1))
 
 
-def _foot_kinematics(model, data, feet, pelvis, qpos_adr, side_sign, hip_roll, hip_pitch, hip_yaw, knee_joint, toe) -> dict:
-    """Signs and Jacobians by finite differences of the kinematics at the nominal pose."""
+def _foot_kinematics(model, data, feet, pelvis, qpos_adr, dof_adr, side_sign, hip_roll, hip_pitch, hip_yaw, knee_joint,
+                     toe) -> dict:
+    """Signs and Jacobians at the nominal pose, the closed chains' passive joints following each motor."""
     base = data.qpos.copy()
     flat = np.stack([data.xmat[f].reshape(3, 3) for f in feet])
     h = 1e-4
 
     def perturbed(leg, joint):
         data.qpos[:] = base
-        data.qpos[qpos_adr[leg, joint]] += h * side_sign[leg, joint]  # a step in role coordinates
+        qvel = _motor_velocity(model, data, dof_adr[leg, [joint]], side_sign[leg, [joint]])
+        mujoco.mj_integratePos(model, data.qpos, qvel, h)  # a step in role coordinates
         mujoco.mj_kinematics(model, data)
         pos = data.xpos[feet[leg]].copy()
         rot = data.xmat[feet[leg]].reshape(3, 3) @ flat[leg].T
@@ -242,10 +247,8 @@ def _foot_kinematics(model, data, feet, pelvis, qpos_adr, side_sign, hip_roll, h
         _, rot = perturbed(leg, hip_yaw)
         yaw.append(-np.sign(rot[1, 0]))  # the foot turns one way, so a planted foot turns the pelvis the other
         torso.append(_torso_signs(model, data, base, qpos_adr[leg], side_sign[leg], hip_roll, hip_pitch))
-        jac = np.zeros((2, len(toe)))
-        for k, joint in enumerate(toe):
-            _, rot = perturbed(leg, joint)
-            jac[:, k] = np.array([-rot[2, 0], rot[2, 1]]) / h  # (pitch, roll), see foot_angles()
+        data.qpos[:] = base
+        jac = _toe_jacobian(model, data, feet[leg], dof_adr[leg, toe], side_sign[leg, toe])
         jacs.append(jac)
         pinv.append(np.linalg.pinv(jac, rcond=1e-3))
         pos, _ = perturbed(leg, knee_joint)
@@ -262,6 +265,31 @@ def _foot_kinematics(model, data, feet, pelvis, qpos_adr, side_sign, hip_roll, h
         knee_extension=np.array(knee),
         foot_flat=flat,
     )
+
+
+def _motor_velocity(model, data, dofs, rates) -> np.ndarray:
+    """qvel moving motor `dofs` at `rates`, the other motors still and the closed chains following."""
+    qvel = np.zeros(model.nv)
+    qvel[dofs] = rates
+    return linkage.follow(model, data, qvel)
+
+
+def _toe_jacobian(model, data, foot, dofs, signs) -> np.ndarray:
+    """d(foot pitch, roll)/d(toe motors) [2, K] in role coordinates, at the pose in `data`.
+
+    Toe motors may drive the foot through rods (Digit's toe A and B move both pitch and roll),
+    so the passive joints follow each motor (`linkage.follow`) before `mj_jacBody` maps the
+    motion to the foot's world angular velocity w. At zero yaw, `env.foot_angles` changes by
+    (pitch, roll) = (w_y, w_x): for a small rotation e = I + [w]x, -e[2] . x = w_y, e[2] . y = w_x.
+    """
+    jacr = np.zeros((3, model.nv))
+    columns = []
+    for dof, sign in zip(dofs, signs):
+        qvel = _motor_velocity(model, data, [dof], [sign])  # runs mj_fwdPosition, which mj_jacBody needs
+        mujoco.mj_jacBody(model, data, None, jacr, foot)
+        w = jacr @ qvel
+        columns.append([w[1], w[0]])
+    return np.array(columns).reshape(-1, 2).T
 
 
 def _torso_signs(model, data, base, qpos_adr_leg, side_sign_leg, hip_roll, hip_pitch) -> np.ndarray:
