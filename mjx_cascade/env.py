@@ -102,6 +102,7 @@ class Env:
         half = 0.5 * (robot.learned_high - robot.learned_low) * scale
         self.action_low = jnp.asarray(mid - half, jnp.float32)
         self.action_high = jnp.asarray(mid + half, jnp.float32)
+        self._hips = jnp.array([robot.hip_roll, robot.hip_pitch])  # the torso regulator's stance joints
         self._side = jnp.asarray(np.stack([np.ones_like(robot.mirror), robot.mirror]), jnp.float32)
         self._weights = rewards.weights(cfg.rewards)
 
@@ -161,7 +162,7 @@ class Env:
             beta=zeros2,
             ground=zeros2,
             lifted=jnp.zeros((), bool),
-            hold=obs.q[stance, jnp.array([self.robot.hip_roll, self.robot.hip_pitch])],
+            hold=obs.q[stance, self._hips],
             steps=jnp.zeros((), jnp.int32),
         )
         false = jnp.zeros((), bool)
@@ -175,7 +176,7 @@ class Env:
         g, reg = cfg.gait, cfg.regulators
         cmd_v, cmd_yaw = cmd[:2], cmd[2]
 
-        hips = jnp.array([r.hip_roll, r.hip_pitch])
+        hips = self._hips
 
         # walking-step bookkeeping and the stance switch (Sec. III-C)
         tau = (time - c.step_start) / g.step_time
@@ -207,8 +208,8 @@ class Env:
         y, yd = bezier.evaluate(c.alpha, tau, g.step_time)
         ref = jnp.asarray(r.nominal_role, jnp.float32).at[r.learned_role, r.learned_joint].set(y)
         ref_v = jnp.zeros_like(ref).at[r.learned_role, r.learned_joint].set(yd)
-        v_now = c.v_sum / jnp.maximum(c.v_count, 1.0)  # vbar of eq. 25: this step's average so far
-        place = regulators.swing_placement(v_now, cmd_v, c.v_avg, c.beta, tau, reg)
+        v_bar = c.v_sum / jnp.maximum(c.v_count, 1.0)  # vbar of eq. 25: this step's average so far
+        place = regulators.swing_placement(v_bar, cmd_v, c.v_avg, c.beta, tau, reg)
         turn = regulators.heading(obs.rpy[2], cmd_yaw, tau, reg)
         ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
@@ -223,7 +224,7 @@ class Env:
             ground = ground + a * (obs.foot_angles[stance] - ground)
         c = c.replace(ground=ground)
         want = jnp.stack([ground, ground])
-        want = want.at[stance].add(regulators.stance_foot_tilt(c.v_avg, cmd_v, reg))
+        want = want.at[stance].add(regulators.stance_foot_tilt(v_bar, cmd_v, reg))
         toe_step = jnp.einsum("lkc,lc->lk", r.toe_pinv, want - obs.foot_angles) * self._side[:, r.toe]
         ref = ref.at[:, r.toe].set(obs.q[:, r.toe] + toe_step)
         ref_v = ref_v.at[:, r.toe].set(0.0)

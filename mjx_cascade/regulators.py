@@ -5,8 +5,8 @@ kinematic signs (derived from its model, `robots/base.py`) that turn "move the s
 forward / outward" or "pitch the pelvis back" into joint-space signs. This replaces the
 paper's hand-set S_y and S_theta (eq. 24 and Sec. IV-B) for any leg geometry.
 
-Velocities are in the heading frame: `v_avg` is the pelvis velocity averaged over the current
-step so far (vbar of eq. 25), `v_des` the command and `v_last` the average over the previous step
+Velocities are in the heading frame: `v_bar` is the pelvis velocity averaged over the current
+step so far (vbar of eq. 25), `v_des` the command and `v_ls` the average over the previous step
 (v^ls). Deviation: averaging vbar over the previous step instead left the first step from standing
 uncorrected, and the robot fell towards the swing side before any placement acted.
 """
@@ -30,7 +30,7 @@ def blend(tau: Array, cfg: RegulatorConfig) -> Array:
     return jnp.clip(tau / cfg.blend_phase, 0.0, 1.0)
 
 
-def swing_placement(v_avg: Array, v_des: Array, v_last: Array, beta: Array, tau: Array, cfg: RegulatorConfig) -> Array:
+def swing_placement(v_bar: Array, v_des: Array, v_ls: Array, beta: Array, tau: Array, cfg: RegulatorConfig) -> Array:
     """Eq. 23-26, rows 1-2: how far to move the swing foot `[forward, leftward]`, in hip radians.
 
     delta_hp = K_php (v_x - v_x^d) + K_dhp (v_x - v_x^ls) + beta_x
@@ -39,8 +39,8 @@ def swing_placement(v_avg: Array, v_des: Array, v_last: Array, beta: Array, tau:
     The printed P matrix repeats K_dhr in row 2; K_dhp (Table 7) is the evident intent. The
     robot multiplies each component by the sign of d(foot position)/d(joint angle).
     """
-    e_des = v_avg - v_des
-    e_last = v_avg - v_last
+    e_des = v_bar - v_des
+    e_last = v_bar - v_ls
     forward = cfg.k_php * e_des[0] + cfg.k_dhp * e_last[0] + beta[0]
     lateral = cfg.k_phr * e_des[1] + cfg.k_dhr * e_last[1] + beta[1]
     return blend(tau, cfg) * jnp.stack([forward, lateral])
@@ -60,9 +60,9 @@ def drift_update(beta: Array, v_step: Array, v_des: Array, cfg: RegulatorConfig)
     return jnp.clip(beta + cfg.k_i_drift * (v_step - v_des), -cfg.drift_limit, cfg.drift_limit)
 
 
-def stance_foot_tilt(v_avg: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
+def stance_foot_tilt(v_bar: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
     """Eq. 24 rows 6-7: stance foot `[pitch, roll]` offsets from the velocity error (Digit)."""
-    e = v_avg - v_des
+    e = v_bar - v_des
     return jnp.stack([cfg.k_ptp * e[0], cfg.k_ptr * e[1]])
 
 
