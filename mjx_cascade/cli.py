@@ -75,6 +75,7 @@ def build_parser() -> Parser:
     ev.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
     ev.add_argument("--impl", choices=("auto", "jax", "warp"))
     ev.add_argument("--json", action="store_true")
+    ev.add_argument("--no-video", action="store_true", help="skip rendering video.gif")
     ev.set_defaults(func=cmd_eval)
     return p
 
@@ -173,7 +174,19 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _headless_gl() -> None:
+    """Let MuJoCo render without a display (EGL) unless the user chose a backend; it reads
+    `MUJOCO_GL` once, when first imported."""
+    import ctypes.util
+    import os
+
+    if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY") and ctypes.util.find_library("EGL"):
+        os.environ["MUJOCO_GL"] = "egl"
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
+    if not args.no_video:
+        _headless_gl()
     from mjx_cascade import _xla, evaluate, robots, scenario
 
     scen = scenario.load(args.scenario)
@@ -185,7 +198,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         raise ConfigError(f"--out {out} exists and is not a directory")
     _xla.enable_compilation_cache()
     metrics = evaluate.evaluate(args.robot, scen, out, checkpoint_dir=args.checkpoint,
-                                model_path=str(model) if model else None, dt=args.dt, impl=args.impl)
+                                model_path=str(model) if model else None, dt=args.dt, impl=args.impl,
+                                video=not args.no_video)
     if args.json:
         print(json.dumps(metrics, indent=2))
     else:
@@ -193,6 +207,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
         if metrics["fell"]:
             verdict += f", fell at {metrics['fall_time']:.2f} s"
         print(f"{args.robot} / {scen.name}: {verdict}; wrote {out}")
+        if metrics.get("video", "video.gif") != "video.gif":
+            print(metrics["video"])
     return 0
 
 

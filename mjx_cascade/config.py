@@ -66,6 +66,8 @@ class RegulatorConfig:
     k_dhr: float  # swing hip roll, on (v_y - v_y^ls)
     k_php: float  # swing hip pitch, P on (v_x - v_x^d)
     k_dhp: float  # swing hip pitch, on (v_x - v_x^ls)
+    k_neutral_x: float  # fraction of Raibert's neutral point v T / 2 added forward (regulators.neutral_point)
+    k_neutral_y: float  # and sideways
     k_ptp: float  # stance toe pitch (Digit only)
     k_ptr: float  # stance toe roll (Digit only)
     k_heading: float  # swing hip yaw per rad of heading error, eq. 24 row 3

@@ -28,6 +28,7 @@ from mjx_cascade.robots.base import Robot
 from mjx_cascade.rotations import quat_to_rpy
 
 GROUND_FILTER = 0.2  # s, time constant of the terrain slope estimate
+MIN_LIP_HEIGHT = 0.3  # m: keeps the LIP prediction finite while the robot falls
 
 
 class ControllerState(struct.PyTreeNode):
@@ -97,6 +98,9 @@ class Env:
         self.action_dim = policy_lib.action_dim(n, order)
         self.policy, self.init_params, self.unravel = policy_lib.make(
             self.action_dim, cfg.policy.hidden_layers, cfg.policy.hidden_units, jax.random.PRNGKey(cfg.seed))
+        if robot.learned_low.shape[1] not in (1, order - 1):
+            raise ValueError(f"{robot.name}: ranges give {robot.learned_low.shape[1]} coefficients per joint, "
+                             f"a Bezier order of {order} has {order - 1} free ones")
         scale = cfg.gait.action_scale
         mid = 0.5 * (robot.learned_low + robot.learned_high)
         half = 0.5 * (robot.learned_high - robot.learned_low) * scale
@@ -208,8 +212,14 @@ class Env:
         y, yd = bezier.evaluate(c.alpha, tau, g.step_time)
         ref = jnp.asarray(r.nominal_role, jnp.float32).at[r.learned_role, r.learned_joint].set(y)
         ref_v = jnp.zeros_like(ref).at[r.learned_role, r.learned_joint].set(yd)
-        v_bar = c.v_sum / jnp.maximum(c.v_count, 1.0)  # vbar of eq. 25: this step's average so far
-        place = regulators.swing_placement(v_bar, cmd_v, c.v_avg, c.beta, tau, reg)
+        # vbar of eq. 25: the LIP's prediction for the step's end, about the stance foot
+        rel = features.to_heading_frame(obs.com[:2] - obs.feet[stance, :2], obs.rpy[2])
+        height = jnp.maximum(obs.com[2] - obs.feet[stance, 2], MIN_LIP_HEIGHT)
+        v_bar = regulators.predicted_velocity(rel, obs.v_heading, height, jnp.maximum(1.0 - tau, 0.0) * g.step_time)
+        b = regulators.blend(tau, reg)
+        place = (regulators.swing_placement(v_bar, cmd_v, c.v_avg, c.beta, tau, reg)
+                 + b * regulators.neutral_point(v_bar, height, g.step_time, reg)
+                 + b * regulators.swing_levelling(obs.rpy))
         turn = regulators.heading(obs.rpy[2], cmd_yaw, tau, reg)
         ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
@@ -235,7 +245,6 @@ class Env:
         ref_v = ref_v.at[stance, hips].set(0.0)
         u = pd.pd_torque(obs.q, obs.qd, ref, ref_v, r.kp, r.kd)
         torso = jnp.asarray(r.torso_sign)[stance] * regulators.torso_torque(obs.rpy, obs.omega, reg) * self._side[stance, hips]
-        b = regulators.blend(tau, reg)
         u = u.at[stance, hips].set((1.0 - b) * u[stance, hips] + b * torso)
         return u, ended, c
 

@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import checkpoint, plots, policies
+from mjx_cascade import checkpoint, plots, policies, robots
+from mjx_cascade import video as video_lib
 from mjx_cascade.rotations import tilt
 from mjx_cascade.trajectory import heading_velocity, moving_average
 from mjx_cascade.config import Config, ConfigError, from_dict
@@ -40,22 +42,22 @@ def load_policy(robot: str, checkpoint_dir: str | None) -> tuple[Config, np.ndar
     return from_dict(meta["config"]).override(**{"physics.impl": "auto"}), params, meta
 
 
-def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
-    """Simulate `scenario`; returns the trajectory as a dict of NumPy arrays."""
+def make_runner(cfg: Config, scenario: Scenario, model_path: str | None = None) -> Callable[[np.ndarray], dict]:
+    """`run(params) -> trajectory` for `scenario`, compiled once for any number of policies.
+
+    The trajectory is a dict of NumPy arrays; the policy parameters are an argument of the
+    jitted simulation, so checking many checkpoints (`benchmarks/time_to_walk.py`) compiles once.
+    """
     cfg = cfg.override(**{"randomization.enabled": False})
     env = make_env(cfg, batch=1, model_path=model_path, terrain=scenario.terrain)
-    if params.shape[0] != env.init_params.shape[0]:
-        raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
-                          f"{env.init_params.shape[0]}")
     every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
     records = int(np.ceil(scenario.duration / (every * env.dt)))
     times = (np.arange(records * every) + 1) * env.dt  # the time at the end of each physics step
     cmd = scenario.command_schedule(times - env.dt).reshape(records, every, 3)
     force = scenario.force_schedule(times - env.dt).reshape(records, every, 3)
-    params = jnp.asarray(params)
 
     @jax.jit
-    def simulate(cmd, force):
+    def simulate(params, cmd, force):
         state = env.reset(params, jax.random.PRNGKey(0), cmd[0, 0])
 
         def record(state, inputs):
@@ -68,21 +70,33 @@ def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | N
 
         return jax.lax.scan(record, state, (cmd, force))[1]
 
-    qpos, qvel, ground, stance = jax.device_get(simulate(jnp.asarray(cmd, jnp.float32),
-                                                            jnp.asarray(force, jnp.float32)))
-    return {
-        "t": times[every - 1::every],  # exact step counts x dt (MJX's float32 clock drifts)
-        "qpos": np.asarray(qpos),
-        "qvel": np.asarray(qvel),
-        "cmd": cmd[:, -1],
-        "force": force[:, -1],
-        "ground": np.asarray(ground),
-        "stance": np.asarray(stance),
-        "dt": np.float64(env.dt),
-        "joints": np.array([env.robot.model.actuator(int(a)).name for a in env.robot.actuator.ravel()]),
-        "joint_qpos": env.robot.qpos_adr.ravel(),
-        "joint_qvel": env.robot.dof_adr.ravel(),
-    }
+    cmd_j, force_j = jnp.asarray(cmd, jnp.float32), jnp.asarray(force, jnp.float32)
+
+    def run(params: np.ndarray) -> dict:
+        if params.shape[0] != env.init_params.shape[0]:
+            raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
+                              f"{env.init_params.shape[0]}")
+        qpos, qvel, ground, stance = jax.device_get(simulate(jnp.asarray(params), cmd_j, force_j))
+        return {
+            "t": times[every - 1::every],  # exact step counts x dt (MJX's float32 clock drifts)
+            "qpos": np.asarray(qpos),
+            "qvel": np.asarray(qvel),
+            "cmd": cmd[:, -1],
+            "force": force[:, -1],
+            "ground": np.asarray(ground),
+            "stance": np.asarray(stance),
+            "dt": np.float64(env.dt),
+            "joints": np.array([env.robot.model.actuator(int(a)).name for a in env.robot.actuator.ravel()]),
+            "joint_qpos": env.robot.qpos_adr.ravel(),
+            "joint_qvel": env.robot.dof_adr.ravel(),
+        }
+
+    return run
+
+
+def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
+    """Simulate `scenario` once; returns the trajectory as a dict of NumPy arrays."""
+    return make_runner(cfg, scenario, model_path)(np.asarray(params))
 
 
 def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, window: float = 1.0) -> dict:
@@ -96,8 +110,9 @@ def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, 
     change = np.nonzero(np.any(np.diff(cmd, axis=0) != 0, axis=1))[0] + 1
     bounds = np.concatenate([[0], change, [len(t)]])
     segments = []
+    period = t[1] - t[0] if len(t) > 1 else 0.0
     for a, b in zip(bounds[:-1], bounds[1:]):
-        t0 = t[a] - (t[1] - t[0] if a == 0 and len(t) > 1 else 0.0)
+        t0 = t[a] - period  # each record ends a period that its command held throughout
         t1 = t[b - 1]
         seg = {"t_start": float(max(t0, 0.0)), "t_end": float(t1), "cmd": cmd[a].tolist()}
         judged = (t >= t0 + settle) & (np.arange(len(t)) >= a) & (np.arange(len(t)) < b)
@@ -123,8 +138,10 @@ def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, 
 
 
 def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: str | None = None,
-             model_path: str | None = None, dt: float | None = None, impl: str | None = None) -> dict:
-    """Run `scenario` and write `trajectory.npz`, `metrics.json` and PNG plots into `out`."""
+             model_path: str | None = None, dt: float | None = None, impl: str | None = None,
+             video: bool = True) -> dict:
+    """Run `scenario` and write `trajectory.npz`, `metrics.json`, PNG plots and, where MuJoCo can
+    render, `video.gif` into `out` (`metrics["video"]` names the file or says why there is none)."""
     cfg, params, meta = load_policy(robot, checkpoint_dir)
     overrides = {}
     if dt is not None:
@@ -146,4 +163,9 @@ def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: st
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     plots.tracking(traj, out / "tracking.png", title=f"{robot}: {scenario.name}")
     plots.limit_cycles(traj, out / "limit_cycles.png", title=f"{robot}: {scenario.name}")
+    if video:
+        body = robots.build(robots.get(cfg.robot), cfg, model_path, scenario.terrain)
+        note = video_lib.render(traj, body.model, out / "video.gif", body.pelvis_body)
+        metrics["video"] = note or "video.gif"
+        (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics

@@ -63,10 +63,12 @@ def coefficients(action: Array, q_start: Array, low: Array, high: Array) -> Arra
     """Bezier coefficients `[N, M + 1]` from sigmoid outputs `[N * (M - 1)]` in (0, 1).
 
     `q_start [N]`: the learned joints' role-coordinate positions at the step start.
-    `low, high [N]`: each learned joint's range for the free coefficients.
+    `low, high [N]` or `[N, M - 1]`: each learned joint's range, for all its free coefficients
+    or for each one.
     """
     n = q_start.shape[0]
-    free = low[:, None] + (high - low)[:, None] * action.reshape(n, -1)
+    low, high = low.reshape(n, -1), high.reshape(n, -1)
+    free = low + (high - low) * action.reshape(n, -1)
     return jnp.concatenate([q_start[:, None], q_start[:, None], free], axis=1)
 
 

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec
 
-from mjx_cascade import checkpoint, es
+from mjx_cascade import checkpoint, es, plots
 from mjx_cascade.config import Config, ConfigError, to_dict
 from mjx_cascade.env import Env, make_env
 from mjx_cascade.rollout import run_episodes
@@ -145,7 +145,7 @@ def _truncate_metrics(path: Path, generation: int) -> None:
 
 def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
           log: Callable[[str], None] | None = None) -> dict:
-    """Train (or resume) into `out`: `out/checkpoints/` and `out/metrics.jsonl`. Returns a summary.
+    """Train (or resume) into `out`: `out/checkpoints/`, `out/metrics.jsonl` and `out/learning_curve.png`.
 
     Everything that can refuse the run (config, model, devices) is checked before `out` is created.
     """
@@ -199,6 +199,7 @@ def train(cfg: Config, out: str | Path, model_path: str | None = None, progress:
         bar.close()
     if mngr.latest_step() != generation:  # nothing was due (already trained that far): still leave a checkpoint
         checkpoint.save(mngr, generation, state, metadata(trainer, generation, physics_steps, wall_clock))
+    plots.learning_curve(metrics_path, out / "learning_curve.png", title=f"{cfg.robot}: fitness (Fig. 6)")
     return {
         "generation": generation,
         "physics_steps": physics_steps,

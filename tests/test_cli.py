@@ -8,6 +8,8 @@ import sys
 import numpy as np
 import pytest
 
+from mjx_cascade import config
+
 from conftest import DATA, DIGIT_MODEL, ROOT
 
 SMOKE = ["--population", "4", "--episode-seconds", "0.5", "--set", "episode.pool_size=4"]
@@ -28,7 +30,7 @@ def test_info_reports_table_1(robot, expect, model):
     assert out.returncode == 0, out.stderr
     info = json.loads(out.stdout)
     assert (info["policy_params"], info["action_dim"], info["state_dim"]) == expect
-    assert info["robot"] == robot and info["dt"] == 0.0005 and len(info["learned_joints"]) == expect[1] // 4
+    assert info["robot"] == robot and info["dt"] == config.robot_config(robot).physics.dt and len(info["learned_joints"]) == expect[1] // 4
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +58,20 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
     assert "resuming" in second.stderr
     # every 10 generations by default, and always where a run stops
     assert sorted(p.name for p in (out / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "3"]
+    assert (out / "learning_curve.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_export_ships_a_run_as_a_packaged_policy(smoke, tmp_path):
+    from mjx_cascade import checkpoint, policies
+
+    dest = policies.export(smoke[0], "cassie", tmp_path / "policies")
+    meta = json.loads((dest / "cassie.json").read_text())
+    params = np.load(dest / "cassie.npz")["params"]
+    assert meta["generation"] == 3 and meta["config"]["robot"] == "cassie"
+    assert meta["params_sha256"] == checkpoint.params_sha256(params) == checkpoint.params_sha256(checkpoint.read(smoke[0])[1])
+    assert len((dest / "cassie_metrics.jsonl").read_text().splitlines()) == 3
+    assert (dest / "cassie_learning.png").stat().st_size > 10_000
 
 
 @pytest.mark.slow

@@ -38,19 +38,26 @@ def test_impact_invariance_at_a_switch(cassie_env, cassie_pool):
 
 
 @pytest.fixture(scope="module")
-def episodes(cassie_env):
-    env = cassie_env
+def standing_still(cassie, cassie_cfg, cassie_pool):
+    """Two-second episodes of the untrained policy, commanded to step in place."""
+    cfg = cassie_cfg.override(**{"episode.seconds": 2.0, "episode.vx": [0.0, 0.0], "episode.vy": [0.0, 0.0],
+                                 "episode.yaw": [0.0, 0.0], "randomization.enabled": False})
+    env = Env(cassie, cfg, cassie_pool, batch=4)
     params = jnp.stack([env.init_params] * 4)
     keys = jax.random.split(jax.random.PRNGKey(1), 4)
-    return jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
+    return env, jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
 
 
-def test_episodes_walk_steps_and_score(episodes, cassie_env):
+def test_an_untrained_policy_steps_in_place(standing_still):
+    """The range middles (what an untrained network outputs) and the regulators step in place
+    from the balanced pool on the nominal model: the starting point the ES improves on. (With
+    Table 5's randomization 7 of 8 such episodes lasted 2 s: robustness is for training to add.)"""
+    env, episodes = standing_still
     assert np.all(np.isfinite(np.asarray(episodes.fitness)))
-    assert np.all(np.asarray(episodes.steps) > 100)
-    assert np.all(np.asarray(episodes.steps) <= cassie_env.episode_steps)
-    assert np.all(np.asarray(episodes.walking_steps) >= 0)
-    assert not np.any(np.asarray(episodes.diverged))
+    assert not np.any(np.asarray(episodes.terminated)) and not np.any(np.asarray(episodes.diverged))
+    np.testing.assert_array_equal(np.asarray(episodes.steps), env.episode_steps)
+    # 2 s of steps of at most step_time each (a step ends at touchdown or by time-out)
+    assert np.all(np.asarray(episodes.walking_steps) >= int(0.75 * 2.0 / env.cfg.gait.step_time))
 
 
 class FaultyEnv(Env):

@@ -68,6 +68,14 @@ def test_coefficients_impact_invariance_and_ranges():
     assert np.all(free >= low[:, None] - 1e-6) and np.all(free <= high[:, None] + 1e-6)
 
 
+def test_coefficients_take_a_range_per_coefficient():
+    q0 = jnp.array([0.1, -1.2])
+    low = jnp.array([[0.0, 0.0, 0.0, 0.0], [-2.4, -2.4, -1.8, -1.7]])
+    high = jnp.array([[1.0, 1.0, 1.0, 1.0], [-1.4, -1.4, -0.8, -0.7]])
+    alpha = gait.coefficients(jnp.full(8, 0.5), q0, low, high)
+    np.testing.assert_allclose(alpha[:, 2:], (low + high) / 2, atol=1e-6)  # middles, coefficient by coefficient
+
+
 def test_step_ends_on_touchdown_after_min_phase_or_on_time_out():
     def ended(tau, force, lifted=True):
         return bool(gait.step_ended(jnp.float32(tau), jnp.float32(force), jnp.bool_(lifted), 0.5, 1.3, 50.0))

@@ -25,6 +25,30 @@ def test_swing_placement_follows_excess_velocity_and_ramps_in():
     np.testing.assert_allclose(drift, [0.05, -0.02], atol=1e-7)
 
 
+def test_lip_prediction():
+    """x'' = g/h x: at rest over the foot nothing moves; a CoM beside the foot falls away from it,
+    faster the longer the wait; with the CoM over the foot the velocity grows by cosh(w t)."""
+    h = 0.9
+    w = np.sqrt(regulators.GRAVITY / h)
+    zero = jnp.zeros(2)
+    np.testing.assert_allclose(regulators.predicted_velocity(zero, zero, h, 0.3), 0.0)
+    out = regulators.predicted_velocity(jnp.array([0.0, 0.1]), zero, h, 0.2)
+    later = regulators.predicted_velocity(jnp.array([0.0, 0.1]), zero, h, 0.3)
+    assert out[0] == 0 and 0 < out[1] < later[1]
+    np.testing.assert_allclose(regulators.predicted_velocity(zero, jnp.array([0.3, -0.1]), h, 0.25),
+                               np.array([0.3, -0.1]) * np.cosh(0.25 * w), rtol=1e-5)
+    # no time left: the prediction is the measured velocity
+    np.testing.assert_allclose(regulators.predicted_velocity(jnp.array([0.2, 0.1]), jnp.array([0.3, -0.1]), h, 0.0),
+                               [0.3, -0.1], rtol=1e-6)
+
+
+def test_neutral_point_is_half_a_step_of_travel_over_the_leg():
+    v = jnp.array([0.4, 0.2])
+    np_ = regulators.neutral_point(v, 0.8, 0.35, REG)
+    np.testing.assert_allclose(np_, [REG.k_neutral_x * 0.4 * 0.35 / 1.6, REG.k_neutral_y * 0.2 * 0.35 / 1.6], rtol=1e-6)
+    assert REG.k_neutral_x > 0  # Cassie lands the foot ahead when moving forward
+
+
 def test_heading_turns_back_and_wraps():
     assert regulators.heading(0.3, 0.0, 1.0, REG) < 0
     assert regulators.heading(-0.3, 0.0, 1.0, REG) > 0
@@ -60,15 +84,11 @@ def standing(cassie_env, cassie_pool):
     return env, data, env.observe(data), ctrl
 
 
-def _torque_change(env, obs, ctrl, cmd, **change):
-    base, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), cmd)
-    moved, _, _ = env.control(env.init_params, ctrl.replace(**change), obs, jnp.float32(0.0), cmd)
+def _obs_change(env, obs, ctrl, **change):
+    """Joint torques [2, J] that measuring `change` instead of `obs` adds."""
+    base, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+    moved, _, _ = env.control(env.init_params, ctrl, obs._replace(**change), jnp.float32(0.0), jnp.zeros(3))
     return np.asarray(moved - base)
-
-
-def _moving(ctrl, v, steps=100.0):
-    """Controller state whose current walking step has averaged velocity `v` so far."""
-    return dict(v_sum=ctrl.v_sum + steps * jnp.asarray(v), v_count=ctrl.v_count + steps)
 
 
 def _swing_foot_shift(env, data, joint, dq):
@@ -85,7 +105,7 @@ def _swing_foot_shift(env, data, joint, dq):
 
 def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
     env, data, obs, ctrl = standing
-    du = _torque_change(env, obs, ctrl, jnp.zeros(3), **_moving(ctrl, [0.4, 0.0]))
+    du = _obs_change(env, obs, ctrl, v_heading=obs.v_heading + jnp.array([0.4, 0.0]))
     j = env.robot.hip_pitch
     dq = du[gait.LEFT, j] / env.robot.kp[j]  # the right foot is in stance: the left leg swings
     assert abs(dq) > 1e-3
@@ -95,10 +115,21 @@ def test_faster_than_commanded_places_the_swing_foot_further_forward(standing):
 
 def test_drifting_left_places_the_swing_foot_further_left(standing):
     env, data, obs, ctrl = standing
-    du = _torque_change(env, obs, ctrl, jnp.zeros(3), **_moving(ctrl, [0.0, 0.3]))
+    du = _obs_change(env, obs, ctrl, v_heading=obs.v_heading + jnp.array([0.0, 0.3]))
     j = env.robot.hip_roll
     shift, _ = _swing_foot_shift(env, data, j, du[gait.LEFT, j] / env.robot.kp[j])
     assert shift[1] > 0
+
+
+def test_swing_hip_cancels_the_pelvis_roll(standing):
+    """Pelvis rolled left side up (it carries the hanging swing foot leftwards): the swing hip
+    moves the foot back to the right by about the same amount."""
+    env, data, obs, ctrl = standing
+    j = env.robot.hip_roll
+    du = _obs_change(env, obs, ctrl, rpy=obs.rpy + jnp.array([0.05, 0.0, 0.0]))
+    shift, _ = _swing_foot_shift(env, data, j, du[gait.LEFT, j] / env.robot.kp[j])
+    carried = 0.05 * float(data.qpos[2] - data.xpos[env.robot.foot_body[gait.LEFT], 2])
+    assert -1.5 * carried < shift[1] < -0.5 * carried
 
 
 def test_heading_error_turns_the_landing_foot_against_it(standing):

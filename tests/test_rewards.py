@@ -85,11 +85,12 @@ def test_terms_order_and_weights():
     ({"rpy_error": jnp.array([0.6, 0.0, 0.0])}, True),
     ({"rpy_error": jnp.array([0.0, -0.6, 0.0])}, True),
     ({"rpy_error": jnp.array([0.0, 0.0, 1.1])}, True),  # yaw error bound widened to 1.0 (README)
-    ({"omega": jnp.array([0.0, 2.5, 0.0])}, True),
+    ({"omega": jnp.array([0.0, TM.max_rate + 0.5, 0.0])}, True),  # Cassie widens eq. 27's bounds (cassie.yaml)
+    ({"omega": jnp.array([0.0, TM.max_rate - 0.5, 0.0])}, False),
     ({"height": jnp.float32(0.75)}, True),
     ({"height": jnp.float32(1.25)}, True),
-    ({"feet_distance": jnp.float32(0.15)}, True),
-    ({"feet_distance": jnp.float32(0.45)}, True),
+    ({"feet_distance": jnp.float32(TM.feet[0] - 0.05)}, True),
+    ({"feet_distance": jnp.float32(TM.feet[1] + 0.05)}, True),
 ])
 def test_termination_eq_27(change, ends):
     assert bool(rewards.terminated(_inputs(**change), TM)) == ends

@@ -10,15 +10,15 @@ import pytest
 from mjx_cascade import config, robots, standing
 from mjx_cascade.config import ConfigError
 from mjx_cascade.robots import digit as digit_lib
-from mjx_cascade.robots import linkage, scene
+from mjx_cascade.robots import base, linkage, scene
 from mjx_cascade.rotations import quat_to_rpy
 from conftest import DIGIT_MODEL
 
 
-def test_cassie_model_is_menageries_with_feet_only_contacts(cassie):
+def test_cassie_model_is_menageries_with_feet_only_contacts(cassie, cassie_cfg):
     m = cassie.model
     assert (m.nq, m.nv, m.nu, m.neq) == (35, 32, 10, 4)
-    assert m.opt.timestep == pytest.approx(0.0005)
+    assert m.opt.timestep == pytest.approx(cassie_cfg.physics.dt)
     colliding = [i for i in range(m.ngeom) if m.geom_contype[i] or m.geom_conaffinity[i]]
     bodies = {m.body(m.geom_bodyid[i]).name for i in colliding}
     assert bodies == {"left-foot", "right-foot", "world"}
@@ -32,6 +32,14 @@ def test_cassie_derived_signs(cassie):
     assert cassie.torque_limit[0].tolist() == pytest.approx([112.5, 112.5, 195.2, 195.2, 45.0])
     # the foot motor turns the foot directly, toe down when it turns negative (plantar rod following)
     np.testing.assert_allclose(cassie.toe_jac[..., 0], [[-1.0, 0.0], [-1.0, 0.0]], atol=1e-3)
+
+
+def test_ranges_are_per_joint_or_per_coefficient(cassie):
+    assert cassie.learned_low.shape == (6, 4)  # the swing knee's range is given per coefficient
+    np.testing.assert_allclose(cassie.learned_low[0], -0.3)  # a single pair applies to every coefficient
+    assert np.all(cassie.learned_low < cassie.learned_high)
+    with pytest.raises(ConfigError, match="pair"):
+        base._ranges(((0.0, 1.0), ((0.0, 1.0), (0.0, 1.0))) + (((0.0, 1.0),) * 3,))
 
 
 def test_touch_sensor_reads_the_ground_reaction_force(cassie, cassie_pool):

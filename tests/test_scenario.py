@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from mjx_cascade import scenario
+from mjx_cascade import evaluate, scenario
 from mjx_cascade.config import ConfigError
 from conftest import DATA, ROOT
 
@@ -60,3 +60,39 @@ def test_invalid_json(tmp_path):
     path.write_text("{not json")
     with pytest.raises(ConfigError, match="not valid JSON"):
         scenario.load(path)
+
+
+def _tracking_trajectory(cmd_at, duration=12.0, period=0.01, error=(0.0, 0.0), height=0.9):
+    """A recorded trajectory (the evaluator's format) that follows `cmd_at(t)` plus `error`."""
+    t = np.arange(1, int(round(duration / period)) + 1) * period
+    cmd = np.array([cmd_at(x - period / 2) for x in t])
+    yaw = cmd[:, 2]
+    v = cmd[:, :2] + np.asarray(error)
+    qpos = np.zeros((len(t), 7))
+    qpos[:, 2] = height
+    qpos[:, 3], qpos[:, 6] = np.cos(yaw / 2), np.sin(yaw / 2)
+    qvel = np.zeros((len(t), 6))
+    qvel[:, 0] = np.cos(yaw) * v[:, 0] - np.sin(yaw) * v[:, 1]
+    qvel[:, 1] = np.sin(yaw) * v[:, 0] + np.cos(yaw) * v[:, 1]
+    return {"t": t, "qpos": qpos, "qvel": qvel, "cmd": cmd}
+
+
+def _profile(x):
+    return (0.0, 0.0, 0.0) if x < 2.0 else (0.4, 0.1, 0.0) if x < 6.0 else (0.2, -0.2, 0.3)
+
+
+def test_tracking_judges_every_segment_of_four_seconds_or_more():
+    m = evaluate.tracking_metrics(_tracking_trajectory(_profile))
+    judged = [s for s in m["segments"] if "within_bounds" in s]
+    # [0, 2) is too short; [2, 6) is exactly 4 s and [6, 12) longer: both judged, from 2 s after their start
+    assert [(round(s["t_start"], 6), s["t_end"]) for s in judged] == [(2.0, 6.0), (6.0, 12.0)]
+    assert not m["fell"] and m["passed"]
+    assert all(s["vx_mae"] < 0.01 and s["vy_mae"] < 0.01 and s["yaw_mae"] < 0.01 for s in judged)
+
+
+def test_tracking_fails_on_velocity_error_and_on_a_fall():
+    slow = evaluate.tracking_metrics(_tracking_trajectory(_profile, error=(-0.15, 0.0)))
+    assert not slow["fell"] and not slow["passed"]
+    assert all(abs(s["vx_mae"] - 0.15) < 0.02 for s in slow["segments"] if "vx_mae" in s)
+    fallen = evaluate.tracking_metrics(_tracking_trajectory(_profile, height=0.5))
+    assert fallen["fell"] and fallen["fall_time"] == pytest.approx(0.01) and not fallen["passed"]

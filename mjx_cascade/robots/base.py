@@ -36,7 +36,9 @@ class RobotDefinition:
     motors: tuple[tuple[str, ...], tuple[str, ...]]  # actuator names (left, right) in `joints` order
     toe_joints: tuple[str, ...]  # joints driving the foot's pitch (and roll)
     learned: tuple[tuple[str, str], ...]  # (role, joint): role is "stance" or "swing"
-    ranges: tuple[tuple[float, float], ...]  # free-coefficient range of each learned joint (left convention)
+    # free-coefficient ranges of each learned joint (left convention): one (low, high) for all of
+    # its free coefficients, or one pair per free coefficient (alpha[2], ..., alpha[M])
+    ranges: tuple[tuple[float, float] | tuple[tuple[float, float], ...], ...]
     kp: tuple[float, ...]  # joint PD gains (eq. 21) per leg joint, N m / rad
     kd: tuple[float, ...]
     pelvis: str
@@ -68,8 +70,8 @@ class Robot:
     kind: np.ndarray  # [2, J] HOLD / LEARNED / TOE / TORSO per (role, joint)
     learned_role: np.ndarray  # [N]
     learned_joint: np.ndarray  # [N]
-    learned_low: np.ndarray  # [N] role coordinates
-    learned_high: np.ndarray  # [N]
+    learned_low: np.ndarray  # [N, K] role coordinates, K = 1 (one range per joint) or M - 1
+    learned_high: np.ndarray  # [N, K]
     kp: np.ndarray  # [J]
     kd: np.ndarray  # [J]
     nominal_qpos: np.ndarray  # [nq]
@@ -165,7 +167,7 @@ def derive(definition: RobotDefinition, model: mujoco.MjModel) -> Robot:
     leg_nominal = nominal[qpos_adr]  # absolute [2, J]
     side_sign = np.stack([np.ones_like(mirror), mirror])  # role value * side_sign = absolute
     nominal_role = np.stack([leg_nominal[0], leg_nominal[0]])  # left convention, both roles
-    ranges = np.array(d.ranges, dtype=np.float64)
+    ranges = _ranges(d.ranges)
 
     pelvis = model.body(d.pelvis).id
     feet = np.array([model.body(f).id for f in d.feet])
@@ -188,8 +190,8 @@ def derive(definition: RobotDefinition, model: mujoco.MjModel) -> Robot:
         kind=kind,
         learned_role=learned_role,
         learned_joint=learned_joint,
-        learned_low=ranges[:, 0],
-        learned_high=ranges[:, 1],
+        learned_low=ranges[..., 0],
+        learned_high=ranges[..., 1],
         kp=np.array(d.kp, dtype=np.float64),
         kd=np.array(d.kd, dtype=np.float64),
         nominal_qpos=nominal,
@@ -204,6 +206,15 @@ def derive(definition: RobotDefinition, model: mujoco.MjModel) -> Robot:
         toe=toe,
         **fd,
     )
+
+
+def _ranges(ranges) -> np.ndarray:
+    """`[N, K, 2]`: (low, high) of each learned joint's free coefficients, pairs broadcast to K."""
+    per = [np.atleast_2d(np.asarray(r, dtype=np.float64)) for r in ranges]
+    k = max(len(p) for p in per)
+    if any(len(p) not in (1, k) or p.shape[1] != 2 for p in per):
+        raise ConfigError(f"each range must be one (low, high) pair or {k} of them")
+    return np.stack([np.broadcast_to(p, (k, 2)) for p in per])
 
 
 def _mirror_signs(data: mujoco.MjData, jnt: np.ndarray) -> np.ndarray:

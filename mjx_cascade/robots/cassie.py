@@ -46,15 +46,19 @@ CASSIE = RobotDefinition(
         ("swing", "hip_pitch"),
         ("swing", "knee"),
     ),
-    # Ranges of the free Bezier coefficients (left-leg convention, rad); their middles
-    # make an untrained policy step in place with the swing knee bent.
+    # Ranges of the free Bezier coefficients (left-leg convention, rad). Their middles, what
+    # an untrained network outputs, step in place under the regulators: the swing knee bends
+    # in the first half of the step and extends in the second (so its range is given per
+    # coefficient), the swing hip pitch holds the foot a little forward. With one range per
+    # joint the middles held the swing knee at a constant angle, which scuffed the foot and
+    # fell within 0.7 s. The ranges bound what can be learned; nothing rewards the middles.
     ranges=(
-        (-0.3, 0.3),
-        (-1.8, -0.8),
-        (-0.2, 0.3),
-        (-0.3, 0.3),
-        (0.0, 1.1),
-        (-2.2, -0.8),
+        (-0.3, 0.3),  # stance hip yaw
+        (-1.5, -0.5),  # stance knee
+        (-0.25, 0.25),  # swing hip roll
+        (-0.3, 0.3),  # swing hip yaw
+        (0.0, 1.1),  # swing hip pitch
+        ((-2.4, -1.4), (-2.4, -1.4), (-1.8, -0.8), (-1.7, -0.7)),  # swing knee: bend, then extend
     ),
     kp=(400.0, 200.0, 200.0, 500.0, 50.0),
     kd=(4.0, 4.0, 10.0, 20.0, 2.0),

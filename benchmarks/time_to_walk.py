@@ -1,0 +1,132 @@
+"""Time from scratch to a policy that passes the walking bar, on whatever device JAX has.
+
+    python benchmarks/time_to_walk.py --robot cassie --out FILE.json [--check-every G]
+        [--max-generations N] [--max-minutes M] [--scenario FILE ...] [--dt DT] [--set KEY=VALUE ...]
+
+Trains with the robot's shipped config (plus `--set` overrides) exactly as `mjx-cascade train`
+does, and every `--check-every` generations runs the ES mean through each scenario on the same
+device (`evaluate.make_runner`: compiled once, at the bar's time step `--dt`), judging it with
+`evaluate.tracking_metrics` from the recorded trajectory alone. It stops at the first check that
+passes every scenario, or at the limits, and writes
+
+    {"device", "backend", "impl", "robot", "wall_clock_s", "check_s", "physics_steps",
+     "generations", "passed", "checks": [...], "config": {...}}
+
+`wall_clock_s` is the training time, compile included, checks excluded (`check_s`, reported
+separately, since the bar is an evaluation, not part of training). Nothing is checkpointed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import mjx_cascade  # noqa: F401  (sets the XLA CPU flag before JAX starts)
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_cascade import _xla, config, evaluate, scenario, train
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "configs" / "scenarios"
+DEFAULT_SCENARIOS = ("speed_profile.json", "limit_cycle.json")
+
+
+def overrides(items: list[str]) -> dict[str, str]:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set needs KEY=VALUE, got {item!r}")
+        out[key.strip()] = value
+    return out
+
+
+def check(runners: dict, params: np.ndarray) -> dict:
+    """Every scenario's verdict for one policy."""
+    results = {}
+    for name, run in runners.items():
+        m = evaluate.tracking_metrics(run(params))
+        results[name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
+                         "segments": [s for s in m["segments"] if "within_bounds" in s]}
+    return results
+
+
+def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: float, check_every: int,
+                 max_generations: int, max_seconds: float, log=print) -> dict:
+    eval_cfg = cfg.override(**{"physics.dt": dt})
+    runners = {s.name: evaluate.make_runner(eval_cfg, s) for s in scenarios}  # evaluation setup, not timed
+    start = time.perf_counter()
+    trainer = train.setup(cfg)
+    state, per_call = trainer.state, cfg.train.generations_per_call
+    compiled = trainer.run.lower(state, jnp.int32(per_call)).compile()
+    log(f"compiled in {time.perf_counter() - start:.1f} s ({trainer.env.impl}, population {cfg.es.population})")
+    check_s, physics_steps, generation, checks, passed = 0.0, 0.0, 0, [], False
+    while generation < max_generations and time.perf_counter() - start - check_s < max_seconds:
+        n = min(per_call, check_every - generation % check_every, max_generations - generation)
+        state, metrics = compiled(state, jnp.int32(n))
+        metrics = jax.device_get(metrics)
+        physics_steps += float(np.sum(metrics["physics_steps"][:n]))
+        generation += n
+        if generation % check_every and generation < max_generations:
+            continue
+        t_check = time.perf_counter()
+        results = check(runners, np.asarray(jax.device_get(state.mean)))
+        check_s += time.perf_counter() - t_check
+        passed = all(r["passed"] for r in results.values())
+        wall = time.perf_counter() - start - check_s
+        checks.append({"generation": generation, "wall_clock_s": wall, "physics_steps": physics_steps,
+                       "fitness_mean": float(metrics["fitness_mean"][n - 1]), "passed": passed,
+                       "scenarios": results})
+        log(f"generation {generation}: {wall:.0f} s, fitness {checks[-1]['fitness_mean']:.3f}, "
+            + ", ".join(f"{k} {'passed' if r['passed'] else ('fell' if r['fell'] else 'failed')}"
+                        for k, r in results.items()))
+        if passed:
+            break
+    return {
+        "device": jax.devices()[0].device_kind,
+        "backend": jax.default_backend(),
+        "impl": trainer.env.impl,
+        "robot": cfg.robot,
+        "wall_clock_s": time.perf_counter() - start - check_s,
+        "check_s": check_s,
+        "physics_steps": physics_steps,
+        "generations": generation,
+        "passed": passed,
+        "eval_dt": dt,
+        "checks": checks,
+        "config": config.to_dict(cfg),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--robot", required=True, choices=["cassie", "digit"])
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--check-every", type=int, default=20, help="generations between checks of the bar")
+    ap.add_argument("--max-generations", type=int, default=2000)
+    ap.add_argument("--max-minutes", type=float, default=30.0, help="training time limit, checks excluded")
+    ap.add_argument("--scenario", action="append", default=None, metavar="FILE",
+                    help=f"repeatable; default: {', '.join(DEFAULT_SCENARIOS)} from configs/scenarios")
+    ap.add_argument("--dt", type=float, default=0.0005, help="physics time step of the checks (the bar's)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    args = ap.parse_args(argv)
+    if args.check_every < 1 or args.max_generations < 1:
+        raise SystemExit("--check-every and --max-generations must be positive")
+    _xla.enable_compilation_cache()
+    cfg = config.robot_config(args.robot)
+    cfg = cfg.override(**overrides(args.set)) if args.set else cfg
+    files = args.scenario or [str(SCENARIOS / f) for f in DEFAULT_SCENARIOS]
+    result = time_to_walk(cfg, [scenario.load(f) for f in files], args.dt, args.check_every,
+                          args.max_generations, 60.0 * args.max_minutes, log=lambda m: print(m, file=sys.stderr))
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps({k: result[k] for k in ("device", "wall_clock_s", "physics_steps", "generations", "passed")}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

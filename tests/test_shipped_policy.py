@@ -1,0 +1,28 @@
+"""The policy that ships with the package, on the CPU at the paper's 2 kHz: it walks and tracks."""
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import DATA
+from mjx_cascade import evaluate, policies, scenario
+
+pytestmark = pytest.mark.slow
+
+
+def test_shipped_cassie_policy_walks_and_tracks(tmp_path):
+    """Two 5-s segments from standing (forward, then slower with a sideways component and a
+    heading change): no fall, and the bar's errors after 2 s of settling in each."""
+    meta, params = policies.load("cassie")
+    assert params.shape == (meta["policy_params"],) == (4184,)
+    metrics = evaluate.evaluate("cassie", scenario.load(DATA / "walk_short.json"), tmp_path, dt=0.0005, video=False)
+    traj = np.load(tmp_path / "trajectory.npz")
+    again = evaluate.tracking_metrics(dict(traj))  # judged from trajectory.npz alone
+    assert again["segments"] == json.loads((tmp_path / "metrics.json").read_text())["segments"] == metrics["segments"]
+    assert not again["fell"] and again["passed"], again["segments"]
+    judged = [s for s in again["segments"] if "within_bounds" in s]
+    assert len(judged) == 2
+    for s in judged:
+        assert s["vx_mae"] <= 0.10 and s["vy_mae"] <= 0.10 and s["yaw_mae"] <= 0.15, s
+    assert metrics["policy"]["params_sha256"] == meta["params_sha256"]
