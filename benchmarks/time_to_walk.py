@@ -5,7 +5,7 @@
 
 Trains with the robot's shipped config (plus `--set` overrides) exactly as `mjx-cascade train`
 does, and every `--check-every` generations runs the ES mean through each scenario on the same
-device (`evaluate.make_runner`: compiled once, at the bar's time step `--dt`), judging it with
+device (`evaluate.Runner`: compiled once, at the bar's time step `--dt`), judging it with
 `evaluate.tracking_metrics` from the recorded trajectory alone. It stops at the first check that
 passes every scenario, or at the limits, and writes
 
@@ -35,16 +35,6 @@ SCENARIOS = Path(__file__).resolve().parents[1] / "configs" / "scenarios"
 DEFAULT_SCENARIOS = ("speed_profile.json", "limit_cycle.json")
 
 
-def overrides(items: list[str]) -> dict[str, str]:
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise SystemExit(f"--set needs KEY=VALUE, got {item!r}")
-        out[key.strip()] = value
-    return out
-
-
 def check(runners: dict, params: np.ndarray) -> dict:
     """Every scenario's verdict for one policy."""
     results = {}
@@ -58,7 +48,7 @@ def check(runners: dict, params: np.ndarray) -> dict:
 def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: float, check_every: int,
                  max_generations: int, max_seconds: float, log=print) -> dict:
     eval_cfg = cfg.override(**{"physics.dt": dt})
-    runners = {s.name: evaluate.make_runner(eval_cfg, s) for s in scenarios}  # evaluation setup, not timed
+    runners = {s.name: evaluate.Runner(eval_cfg, s) for s in scenarios}  # evaluation setup, not timed
     start = time.perf_counter()
     trainer = train.setup(cfg)
     state, per_call = trainer.state, cfg.train.generations_per_call
@@ -117,8 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.check_every < 1 or args.max_generations < 1:
         raise SystemExit("--check-every and --max-generations must be positive")
     _xla.enable_compilation_cache()
-    cfg = config.robot_config(args.robot)
-    cfg = cfg.override(**overrides(args.set)) if args.set else cfg
+    try:
+        cfg = config.robot_config(args.robot).override(**config.parse_assignments(args.set))
+    except config.ConfigError as e:
+        raise SystemExit(f"time_to_walk: {e}") from None
     files = args.scenario or [str(SCENARIOS / f) for f in DEFAULT_SCENARIOS]
     result = time_to_walk(cfg, [scenario.load(f) for f in files], args.dt, args.check_every,
                           args.max_generations, 60.0 * args.max_minutes, log=lambda m: print(m, file=sys.stderr))

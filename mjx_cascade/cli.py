@@ -141,11 +141,7 @@ def training_config(args: argparse.Namespace) -> config_lib.Config:
                       ("checkpoint_every", "train.checkpoint_every"), ("impl", "physics.impl")):
         if getattr(args, flag) is not None:
             overrides[key] = getattr(args, flag)
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise ConfigError(f"--set needs KEY=VALUE, got {item!r}")
-        overrides[key.strip()] = value
+    overrides.update(config_lib.parse_assignments(args.set))
     return cfg.override(**overrides) if overrides else cfg
 
 

@@ -226,6 +226,17 @@ def load(path: str | Path) -> Config:
     return cfg
 
 
+def parse_assignments(items: list[str]) -> dict[str, str]:
+    """`["a.b=1", ...]` (the command lines' `--set`) -> `{"a.b": "1"}`, values parsed later."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise ConfigError(f"--set needs KEY=VALUE, got {item!r}")
+        out[key.strip()] = value
+    return out
+
+
 def apply_overrides(cfg: Config, overrides: dict[str, Any]) -> Config:
     """Apply `{"section.key": value}` overrides (string values are parsed as YAML)."""
     nested: dict = {}

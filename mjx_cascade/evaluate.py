@@ -12,13 +12,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import checkpoint, plots, policies, robots
+from mjx_cascade import checkpoint, plots, policies
 from mjx_cascade import video as video_lib
 from mjx_cascade.rotations import tilt
 from mjx_cascade.trajectory import heading_velocity, moving_average
@@ -42,61 +41,65 @@ def load_policy(robot: str, checkpoint_dir: str | None) -> tuple[Config, np.ndar
     return from_dict(meta["config"]).override(**{"physics.impl": "auto"}), params, meta
 
 
-def make_runner(cfg: Config, scenario: Scenario, model_path: str | None = None) -> Callable[[np.ndarray], dict]:
-    """`run(params) -> trajectory` for `scenario`, compiled once for any number of policies.
+class Runner:
+    """`runner(params) -> trajectory` for one scenario, compiled once for any number of policies.
 
     The trajectory is a dict of NumPy arrays; the policy parameters are an argument of the
     jitted simulation, so checking many checkpoints (`benchmarks/time_to_walk.py`) compiles once.
+    `robot` is the simulated robot, its model including the scenario's terrain.
     """
-    cfg = cfg.override(**{"randomization.enabled": False})
-    env = make_env(cfg, batch=1, model_path=model_path, terrain=scenario.terrain)
-    every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
-    records = int(np.ceil(scenario.duration / (every * env.dt)))
-    times = (np.arange(records * every) + 1) * env.dt  # the time at the end of each physics step
-    cmd = scenario.command_schedule(times - env.dt).reshape(records, every, 3)
-    force = scenario.force_schedule(times - env.dt).reshape(records, every, 3)
 
-    @jax.jit
-    def simulate(params, cmd, force):
-        state = env.reset(params, jax.random.PRNGKey(0), cmd[0, 0])
+    def __init__(self, cfg: Config, scenario: Scenario, model_path: str | None = None):
+        cfg = cfg.override(**{"randomization.enabled": False})
+        self.env = env = make_env(cfg, batch=1, model_path=model_path, terrain=scenario.terrain)
+        self.robot = env.robot
+        self.every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
+        records = int(np.ceil(scenario.duration / (self.every * env.dt)))
+        self.times = (np.arange(records * self.every) + 1) * env.dt  # the time at the end of each physics step
+        self.cmd = scenario.command_schedule(self.times - env.dt).reshape(records, self.every, 3)
+        self.force = scenario.force_schedule(self.times - env.dt).reshape(records, self.every, 3)
 
-        def record(state, inputs):
-            def physics(state, x):
-                return env.step(params, state, x[0], x[1]), None
+        @jax.jit
+        def simulate(params, cmd, force):
+            state = env.reset(params, jax.random.PRNGKey(0), cmd[0, 0])
 
-            state, _ = jax.lax.scan(physics, state, inputs)
-            obs = env.observe(state.data)
-            return state, (state.data.qpos, state.data.qvel, obs.ground, state.ctrl.stance)
+            def record(state, inputs):
+                def physics(state, x):
+                    return env.step(params, state, x[0], x[1]), None
 
-        return jax.lax.scan(record, state, (cmd, force))[1]
+                state, _ = jax.lax.scan(physics, state, inputs)
+                obs = env.observe(state.data)
+                return state, (state.data.qpos, state.data.qvel, obs.ground, state.ctrl.stance)
 
-    cmd_j, force_j = jnp.asarray(cmd, jnp.float32), jnp.asarray(force, jnp.float32)
+            return jax.lax.scan(record, state, (cmd, force))[1]
 
-    def run(params: np.ndarray) -> dict:
+        self._simulate = simulate
+        self._inputs = jnp.asarray(self.cmd, jnp.float32), jnp.asarray(self.force, jnp.float32)
+
+    def __call__(self, params: np.ndarray) -> dict:
+        env, robot = self.env, self.robot
         if params.shape[0] != env.init_params.shape[0]:
             raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
                               f"{env.init_params.shape[0]}")
-        qpos, qvel, ground, stance = jax.device_get(simulate(jnp.asarray(params), cmd_j, force_j))
+        qpos, qvel, ground, stance = jax.device_get(self._simulate(jnp.asarray(params), *self._inputs))
         return {
-            "t": times[every - 1::every],  # exact step counts x dt (MJX's float32 clock drifts)
+            "t": self.times[self.every - 1::self.every],  # exact step counts x dt (MJX's float32 clock drifts)
             "qpos": np.asarray(qpos),
             "qvel": np.asarray(qvel),
-            "cmd": cmd[:, -1],
-            "force": force[:, -1],
+            "cmd": self.cmd[:, -1],
+            "force": self.force[:, -1],
             "ground": np.asarray(ground),
             "stance": np.asarray(stance),
             "dt": np.float64(env.dt),
-            "joints": np.array([env.robot.model.actuator(int(a)).name for a in env.robot.actuator.ravel()]),
-            "joint_qpos": env.robot.qpos_adr.ravel(),
-            "joint_qvel": env.robot.dof_adr.ravel(),
+            "joints": np.array([robot.model.actuator(int(a)).name for a in robot.actuator.ravel()]),
+            "joint_qpos": robot.qpos_adr.ravel(),
+            "joint_qvel": robot.dof_adr.ravel(),
         }
-
-    return run
 
 
 def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
     """Simulate `scenario` once; returns the trajectory as a dict of NumPy arrays."""
-    return make_runner(cfg, scenario, model_path)(np.asarray(params))
+    return Runner(cfg, scenario, model_path)(np.asarray(params))
 
 
 def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, window: float = 1.0) -> dict:
@@ -149,7 +152,8 @@ def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: st
     if impl is not None:
         overrides["physics.impl"] = impl
     cfg = cfg.override(**overrides)
-    traj = run(cfg, params, scenario, model_path)
+    runner = Runner(cfg, scenario, model_path)
+    traj = runner(params)
     metrics = {
         "robot": robot,
         "scenario": scenario.to_dict(),
@@ -160,12 +164,10 @@ def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: st
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "trajectory.npz", **traj)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     plots.tracking(traj, out / "tracking.png", title=f"{robot}: {scenario.name}")
     plots.limit_cycles(traj, out / "limit_cycles.png", title=f"{robot}: {scenario.name}")
     if video:
-        body = robots.build(robots.get(cfg.robot), cfg, model_path, scenario.terrain)
-        note = video_lib.render(traj, body.model, out / "video.gif", body.pelvis_body)
+        note = video_lib.render(traj, runner.robot.model, out / "video.gif", runner.robot.pelvis_body)
         metrics["video"] = note or "video.gif"
-        (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics

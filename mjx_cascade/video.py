@@ -8,6 +8,7 @@ the plots do not depend on it.
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import mujoco
@@ -25,7 +26,8 @@ def render(traj: dict, model: mujoco.MjModel, path: Path, pelvis: int, fps: int 
         return f"no video: MuJoCo could not open an OpenGL context ({type(e).__name__}: {str(e).splitlines()[0]})"
     from PIL import Image
 
-    model.vis.headlight.ambient[:], model.vis.headlight.diffuse[:] = 0.45, 0.6  # the models bring no lights
+    model = copy.deepcopy(model)  # brighter lights for the video only: the models bring none
+    model.vis.headlight.ambient[:], model.vis.headlight.diffuse[:] = 0.45, 0.6
     data = mujoco.MjData(model)
     option = mujoco.MjvOption()
     option.geomgroup[:] = 1  # collision geoms too: the visual meshes may have been dropped

@@ -40,7 +40,7 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
 def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     """One compiled simulation serves every policy (the time-to-walk checks rely on it)."""
     scen = scenario.parse({"name": "s", "duration": 0.2, "commands": [{"t": 0, "vx": 0.0, "vy": 0.0, "yaw": 0.0}]})
-    run = evaluate.make_runner(cassie_cfg, scen)
+    run = evaluate.Runner(cassie_cfg, scen)
     from mjx_cascade.env import make_env
 
     params = make_env(cassie_cfg).init_params

@@ -63,3 +63,9 @@ def test_every_setting_is_in_the_shipped_yaml():
     del data["gait"]["step_time"]
     with pytest.raises(ConfigError, match="gait.step_time"):
         config.from_dict(data)
+
+
+def test_set_assignments_are_parsed_once_for_every_command_line():
+    assert config.parse_assignments(["es.sigma=0.05", " episode.vx =[0, 1]"]) == {"es.sigma": "0.05", "episode.vx": "[0, 1]"}
+    with pytest.raises(ConfigError, match="KEY=VALUE"):
+        config.parse_assignments(["es.sigma"])
