@@ -1,4 +1,4 @@
-"""`mjx-cascade`: info, train and eval from the command line.
+"""`mjx-cascade`: info, train, eval and robustness from the command line.
 
 The command line only parses and validates; every command calls the library functions that
 notebooks and tests call. Bad input ends with one line on stderr and exit status 2, before
@@ -77,6 +77,19 @@ def build_parser() -> Parser:
     ev.add_argument("--json", action="store_true")
     ev.add_argument("--no-video", action="store_true", help="skip rendering video.gif")
     ev.set_defaults(func=cmd_eval)
+
+    rob = sub.add_parser("robustness", help="success rates against pushes, slopes, rough ground and mass error")
+    rob.add_argument("--robot", required=True, choices=config_lib.ROBOTS)
+    rob.add_argument("--checkpoint", metavar="DIR", help="a run's --out or checkpoints/ (default: the shipped policy)")
+    rob.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    rob.add_argument("--out", required=True, metavar="DIR")
+    rob.add_argument("--axes", nargs="+", metavar="AXIS", help="any of push slope rough mass (default: all)")
+    rob.add_argument("--trials", type=int, help="trials per cell (default 10)")
+    rob.add_argument("--seconds", type=float, help="length of each trial, s (default 10)")
+    rob.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
+    rob.add_argument("--impl", choices=("auto", "jax", "warp"))
+    rob.add_argument("--json", action="store_true")
+    rob.set_defaults(func=cmd_robustness)
     return p
 
 
@@ -180,12 +193,10 @@ def _headless_gl() -> None:
         os.environ["MUJOCO_GL"] = "egl"
 
 
-def cmd_eval(args: argparse.Namespace) -> int:
-    if not args.no_video:
-        _headless_gl()
-    from mjx_cascade import _xla, evaluate, robots, scenario
+def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path]:
+    """Validate `--dt`, `--model` and `--out` of eval and robustness; returns `(model path, out)`."""
+    from mjx_cascade import _xla, robots
 
-    scen = scenario.load(args.scenario)
     if args.dt is not None and args.dt <= 0:
         raise ConfigError("--dt must be positive")
     model = robots.model_path(robots.get(args.robot), args.model)
@@ -193,9 +204,18 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} exists and is not a directory")
     _xla.enable_compilation_cache()
-    metrics = evaluate.evaluate(args.robot, scen, out, checkpoint_dir=args.checkpoint,
-                                model_path=str(model) if model else None, dt=args.dt, impl=args.impl,
-                                video=not args.no_video)
+    return (str(model) if model else None), out
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    if not args.no_video:
+        _headless_gl()
+    from mjx_cascade import evaluate, scenario
+
+    scen = scenario.load(args.scenario)
+    model, out = _simulation_args(args)
+    metrics = evaluate.evaluate(args.robot, scen, out, checkpoint_dir=args.checkpoint, model_path=model,
+                                dt=args.dt, impl=args.impl, video=not args.no_video)
     if args.json:
         print(json.dumps(metrics, indent=2))
     else:
@@ -205,6 +225,25 @@ def cmd_eval(args: argparse.Namespace) -> int:
         print(f"{args.robot} / {scen.name}: {verdict}; wrote {out}")
         if metrics.get("video", "video.gif") != "video.gif":
             print(metrics["video"])
+    return 0
+
+
+def cmd_robustness(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from mjx_cascade import robustness
+
+    given = {k: v for k, v in (("axes", args.axes and tuple(args.axes)), ("trials", args.trials),
+                               ("seconds", args.seconds)) if v is not None}
+    sweep = dataclasses.replace(robustness.Sweep(), **given)
+    model, out = _simulation_args(args)
+    results, _ = robustness.sweep(args.robot, out, sweep, checkpoint_dir=args.checkpoint, model_path=model,
+                                  dt=args.dt, impl=args.impl)
+    if args.json:
+        print(json.dumps({k: v for k, v in results.items() if k != "trials"}, indent=2))
+    else:
+        print(robustness.markdown(results))
+        print(f"wrote {out} in {results['wall_clock_s']:.0f} s")
     return 0
 
 

@@ -11,7 +11,7 @@ an argument so that each environment can have its own (domain randomization).
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -83,10 +83,9 @@ def foot_angles(rot: Array, flat: Array, yaw: Array) -> Array:
 class Env:
     """A robot, a config and the compiled MJX model; `reset` and `step` are pure and jittable."""
 
-    def __init__(self, robot: Robot, cfg: Config, pool: tuple[np.ndarray, np.ndarray], batch: int = 1,
-                 terrain: dict | None = None):
+    def __init__(self, robot: Robot, cfg: Config, pool: tuple[np.ndarray, np.ndarray], batch: int = 1):
         self.robot, self.cfg = robot, cfg
-        self.terrain = terrain or {"type": "flat"}
+        self.height_field = scene.height_field(robot.model)  # None on a plane
         self.impl = resolve_impl(cfg.physics.impl)
         self.model = put_model(robot.model, self.impl)
         self.data_template = make_data(robot.model, self.impl, cfg.physics, batch)
@@ -111,7 +110,8 @@ class Env:
         self._weights = rewards.weights(cfg.rewards)
 
     # ------------------------------------------------------------------ measurement
-    def observe(self, data: mjx.Data) -> Obs:
+    def observe(self, data: mjx.Data, model: mjx.Model | None = None) -> Obs:
+        """The controller's measurements; `model` (default `self.model`) holds the terrain."""
         r = self.robot
         rpy = quat_to_rpy(data.qpos[3:7], jnp)
         feet_rot = data.xmat[r.foot_body]
@@ -132,8 +132,14 @@ class Env:
             foot_v=foot_v,
             foot_w=cvel[:, :3],
             com=root_com,
-            ground=scene.ground_height(self.terrain, pos[0], pos[1], xp=jnp),
+            ground=self.ground_height(pos, self.model if model is None else model),
         )
+
+    def ground_height(self, pos: Array, model: mjx.Model) -> Array:
+        """Terrain height under `pos`, read from the model's height field (its data may be batched)."""
+        if self.height_field is None:
+            return jnp.zeros(())
+        return scene.height_at(self.height_field, model.hfield_data, pos[0], pos[1], xp=jnp)
 
     # ------------------------------------------------------------------ the motion policy
     def plan(self, params: Array, q: Array, stance: Array, cmd: Array, v_avg: Array) -> Array:
@@ -153,7 +159,7 @@ class Env:
         i = jax.random.randint(k_pool, (), 0, self.pool_qpos.shape[0])
         data = self.data_template.replace(qpos=self.pool_qpos[i], qvel=self.pool_qvel[i])
         data = mjx.forward(model, data)
-        obs = self.observe(data)
+        obs = self.observe(data, model)
         stance = jax.random.bernoulli(k_side).astype(jnp.int32)
         zeros2 = jnp.zeros(2)
         ctrl = ControllerState(
@@ -255,7 +261,7 @@ class Env:
         r, cfg = self.robot, self.cfg
         model = self.model if model is None else model
         data = state.data
-        obs = self.observe(data)
+        obs = self.observe(data, model)
         u, _, ctrl = self.control(params, state.ctrl, obs, data.time, cmd)
         motor = pd.motor_command(u, r.gear, r.ctrl_low, r.ctrl_high)
         data = data.replace(ctrl=data.ctrl.at[r.actuator].set(motor))
@@ -306,11 +312,13 @@ class Env:
         return state.ret / (self.episode_steps * self.dt)
 
 
-def make_env(cfg: Config, batch: int = 1, model_path: str | None = None, terrain: dict | None = None) -> Env:
-    """Build the robot for `cfg` (and a terrain), its balanced initial states, and the environment.
+def make_env(cfg: Config, batch: int = 1, model_path: str | None = None,
+             terrain: dict | Sequence[dict] | None = None) -> Env:
+    """Build the robot for `cfg` (and a terrain, or several: `scene.compile_model`), its balanced
+    initial states, and the environment.
 
     `batch` sizes MJX warp's contact buffer for that many parallel environments.
     """
     robot = robots.build(robots.get(cfg.robot), cfg, model_path, terrain)
     pool = standing.balanced_pool(robot, cfg, seed=cfg.seed)
-    return Env(robot, cfg, pool, batch=batch, terrain=terrain)
+    return Env(robot, cfg, pool, batch=batch)

@@ -24,6 +24,7 @@ from mjx_cascade.trajectory import heading_velocity, moving_average
 from mjx_cascade.config import Config, ConfigError, from_dict
 from mjx_cascade.scenario import Scenario
 from mjx_cascade.env import make_env
+from mjx_cascade.robots.base import Robot
 
 RECORD_PERIOD = 0.01  # s
 FALL_HEIGHT, FALL_TILT = 0.6, 0.6
@@ -91,10 +92,17 @@ class Runner:
             "ground": np.asarray(ground),
             "stance": np.asarray(stance),
             "dt": np.float64(env.dt),
-            "joints": np.array([robot.model.actuator(int(a)).name for a in robot.actuator.ravel()]),
-            "joint_qpos": robot.qpos_adr.ravel(),
-            "joint_qvel": robot.dof_adr.ravel(),
+            **joint_layout(robot),
         }
+
+
+def joint_layout(robot: Robot) -> dict:
+    """Names and qpos/qvel addresses of the actuated joints, for the trajectory's plots."""
+    return {
+        "joints": np.array([robot.model.actuator(int(a)).name for a in robot.actuator.ravel()]),
+        "joint_qpos": robot.qpos_adr.ravel(),
+        "joint_qvel": robot.dof_adr.ravel(),
+    }
 
 
 def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
@@ -102,12 +110,15 @@ def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | N
     return Runner(cfg, scenario, model_path)(np.asarray(params))
 
 
+def fallen(qpos: np.ndarray, ground: np.ndarray) -> np.ndarray:
+    """[T] bool: the pelvis below 0.6 m above the ground, tilted beyond 0.6 rad, or non-finite."""
+    return (qpos[:, 2] - ground < FALL_HEIGHT) | (tilt(qpos[:, 3:7]) > FALL_TILT) | ~np.all(np.isfinite(qpos), axis=1)
+
+
 def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, window: float = 1.0) -> dict:
     """Fall and per-segment tracking errors, from `t, qpos, qvel, cmd` (and `ground` if present)."""
     t, qpos, qvel, cmd = (np.asarray(traj[k]) for k in ("t", "qpos", "qvel", "cmd"))
-    ground = np.asarray(traj["ground"]) if "ground" in traj else np.zeros_like(t)
-    height = qpos[:, 2] - ground
-    fallen = (height < FALL_HEIGHT) | (tilt(qpos[:, 3:7]) > FALL_TILT) | ~np.all(np.isfinite(qpos), axis=1)
+    fell_at = fallen(qpos, np.asarray(traj["ground"]) if "ground" in traj else np.zeros_like(t))
     v, yaw = heading_velocity(qpos, qvel)
     v_avg = moving_average(v, t, window)
     change = np.nonzero(np.any(np.diff(cmd, axis=0) != 0, axis=1))[0] + 1
@@ -130,10 +141,10 @@ def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, 
                                         and seg["yaw_mae"] <= BOUNDS["yaw"])
         segments.append(seg)
     judged_segments = [s for s in segments if "within_bounds" in s]
-    fell = bool(fallen.any())
+    fell = bool(fell_at.any())
     return {
         "fell": fell,
-        "fall_time": float(t[np.argmax(fallen)]) if fell else None,
+        "fall_time": float(t[np.argmax(fell_at)]) if fell else None,
         "segments": segments,
         "passed": (not fell) and all(s["within_bounds"] for s in judged_segments),
         "bounds": BOUNDS,

@@ -16,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -129,8 +129,10 @@ def model_path(definition: RobotDefinition, path: str | None) -> Path | None:
     return p
 
 
-def build(definition: RobotDefinition, cfg: Config, model: str | None = None, terrain: dict | None = None) -> Robot:
-    """Compile the model for `cfg.physics` (and a scenario terrain) and derive the controller's arrays."""
+def build(definition: RobotDefinition, cfg: Config, model: str | None = None,
+          terrain: dict | Sequence[dict] | None = None) -> Robot:
+    """Compile the model for `cfg.physics` (and a scenario terrain, or several: `scene.compile_model`)
+    and derive the controller's arrays."""
     spec = definition.load_spec(model_path(definition, model))
     model = scene.compile_model(spec, definition, cfg.physics, terrain or {"type": "flat"})
     return derive(definition, model)

@@ -10,13 +10,15 @@
   site enclosing the foot's collision geoms; the model's own sensors are dropped, since the
   controller reads the state directly.
 - Terrain: `flat` is a plane; `slope` and `rough` are height fields that are flat within
-  1 m of the start, so every scenario begins standing on level ground.
+  1 m of the start, so every scenario begins standing on level ground. A list of terrains
+  builds one height field whose vertical range holds them all; `hfield_data` gives each
+  one's data for that model, so a batch can walk on different terrains in one compiled call.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple, Sequence
 
 import mujoco
 import numpy as np
@@ -31,7 +33,8 @@ HFIELD_EXTENT = ((-5.0, 25.0), (-10.0, 10.0))  # x and y ranges covered by a hei
 HFIELD_CELL = 0.04  # m
 
 
-def compile_model(spec: mujoco.MjSpec, robot: "RobotDefinition", physics: PhysicsConfig, terrain: dict) -> mujoco.MjModel:
+def compile_model(spec: mujoco.MjSpec, robot: "RobotDefinition", physics: PhysicsConfig,
+                  terrain: dict | Sequence[dict]) -> mujoco.MjModel:
     _strip_visuals(spec)
     for sensor in list(spec.sensors):
         spec.delete(sensor)
@@ -42,7 +45,10 @@ def compile_model(spec: mujoco.MjSpec, robot: "RobotDefinition", physics: Physic
     spec.option.timestep = physics.dt
     spec.option.iterations = physics.solver_iterations
     spec.option.ls_iterations = physics.ls_iterations
-    return spec.compile()
+    model = spec.compile()
+    if model.nhfield:  # MuJoCo rescales the data to [0, 1]; restore the first terrain's heights
+        model.hfield_data[:] = hfield_data(model, terrain if isinstance(terrain, dict) else terrain[0])
+    return model
 
 
 def _strip_visuals(spec: mujoco.MjSpec) -> None:
@@ -133,24 +139,86 @@ def _rough(amplitude: float, seed: int, x, y, xp):
     return amplitude * field * ramp
 
 
-def _add_ground(spec: mujoco.MjSpec, terrain: dict) -> None:
-    if terrain["type"] == "flat":
+def _grid() -> tuple[np.ndarray, np.ndarray]:
+    (x0, x1), (y0, y1) = HFIELD_EXTENT
+    ncol = int(round((x1 - x0) / HFIELD_CELL)) + 1
+    nrow = int(round((y1 - y0) / HFIELD_CELL)) + 1
+    return np.linspace(x0, x1, ncol), np.linspace(y0, y1, nrow)
+
+
+def _heights(terrain: dict) -> np.ndarray:
+    """[nrow, ncol] terrain heights on the height field's grid (rows along y, as MuJoCo's)."""
+    xs, ys = _grid()
+    return ground_height(terrain, xs[None, :], ys[:, None])
+
+
+def _add_ground(spec: mujoco.MjSpec, terrain: dict | Sequence[dict]) -> None:
+    terrains = [terrain] if isinstance(terrain, dict) else list(terrain)
+    if all(t["type"] == "flat" for t in terrains):
         spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1],
                                 contype=0, conaffinity=1, condim=3)
         return
     (x0, x1), (y0, y1) = HFIELD_EXTENT
-    ncol = int(round((x1 - x0) / HFIELD_CELL)) + 1
-    nrow = int(round((y1 - y0) / HFIELD_CELL)) + 1
-    xs, ys = np.linspace(x0, x1, ncol), np.linspace(y0, y1, nrow)
-    heights = ground_height(terrain, xs[None, :], ys[:, None])
-    low, high = float(heights.min()), float(heights.max())
-    span = max(high - low, 1e-3)
+    xs, ys = _grid()
+    heights = [_heights(t) for t in terrains]
+    low = min(float(h.min()) for h in heights)
+    span = max(max(float(h.max()) for h in heights) - low, 1e-3)
     spec.add_hfield(
         name="terrain",
         size=[(x1 - x0) / 2, (y1 - y0) / 2, span, 0.5],
-        nrow=nrow,
-        ncol=ncol,
-        userdata=((heights - low) / span).astype(np.float32).ravel().tolist(),
+        nrow=len(ys),
+        ncol=len(xs),
+        userdata=((heights[0] - low) / span).astype(np.float32).ravel().tolist(),
     )
     spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain",
                             pos=[(x0 + x1) / 2, (y0 + y1) / 2, low], contype=0, conaffinity=1, condim=3)
+
+
+class HeightField(NamedTuple):
+    """Where a model's height field lies: static numbers for looking heights up in its data."""
+
+    x0: float
+    y0: float
+    cell_x: float
+    cell_y: float
+    nrow: int
+    ncol: int
+    low: float  # height of data 0
+    span: float  # height of data 1 above `low`
+
+
+def height_field(model: mujoco.MjModel) -> HeightField | None:
+    """The ground's height field, or None when the ground is a plane."""
+    if model.nhfield == 0:
+        return None
+    g = model.geom("ground")
+    sx, sy, span, _ = model.hfield_size[0]
+    nrow, ncol = int(model.hfield_nrow[0]), int(model.hfield_ncol[0])
+    return HeightField(float(g.pos[0] - sx), float(g.pos[1] - sy), float(2 * sx / (ncol - 1)),
+                       float(2 * sy / (nrow - 1)), nrow, ncol, float(g.pos[2]), float(span))
+
+
+def hfield_data(model: mujoco.MjModel, terrain: dict) -> np.ndarray:
+    """`terrain`'s data for `model`'s height field (built from a list of terrains that held it)."""
+    hf = height_field(model)
+    if hf is None:
+        raise ValueError("the model's ground is a plane, not a height field")
+    data = (_heights(terrain) - hf.low) / hf.span
+    if data.shape != (hf.nrow, hf.ncol) or data.min() < -1e-6 or data.max() > 1 + 1e-6:
+        raise ValueError(f"terrain {terrain} does not fit the model's height field")
+    return np.clip(data, 0.0, 1.0).astype(np.float32).ravel()
+
+
+def height_at(hf: HeightField, data, x, y, xp=np):
+    """Ground height at world (x, y), bilinear in the height field's `data` (flat, row-major).
+
+    `data` may be a traced array (one environment's row of a batch of terrains).
+    """
+    fx = xp.clip((x - hf.x0) / hf.cell_x, 0.0, hf.ncol - 1.001)
+    fy = xp.clip((y - hf.y0) / hf.cell_y, 0.0, hf.nrow - 1.001)
+    ix, iy = xp.floor(fx).astype(int), xp.floor(fy).astype(int)
+    ax, ay = fx - ix, fy - iy
+    z = data.reshape(hf.nrow, hf.ncol)
+    top = (1 - ax) * z[iy, ix] + ax * z[iy, ix + 1]
+    bottom = (1 - ax) * z[iy + 1, ix] + ax * z[iy + 1, ix + 1]
+    return hf.low + hf.span * ((1 - ay) * top + ay * bottom)

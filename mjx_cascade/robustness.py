@@ -1,0 +1,309 @@
+"""Robustness sweeps (Sec. VI-B3, Fig. 11-14): success rate against pushes, slopes, rough
+ground and whole-robot mass error, every trial of a sweep in one jitted, vmapped call.
+
+A trial walks at `speed` from standing for `seconds`, with no early termination. Trials of
+one cell differ in their Table 5 model perturbation (link masses and centres of mass, drawn
+as in training), their start (pool member, first stance foot) and, for pushes, the push's
+time within one gait cycle: a random gait phase. Rough-ground trials also differ in the
+bumps' seed. Success: no fall (`evaluate.fallen`) and, over the last `judge_seconds`, the
+1-second average heading-frame velocity within `tolerance` m/s mean absolute error of the
+command, in vx and in vy.
+
+Trials on the plane (pushes, mass) run in one call; trials on height fields (slopes, rough
+ground) in another, each environment with its own row of height-field data
+(`scene.compile_model` with a list of terrains).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_cascade import checkpoint, plots, randomization
+from mjx_cascade.config import Config, ConfigError
+from mjx_cascade.env import Env, make_env
+from mjx_cascade.evaluate import RECORD_PERIOD, fallen, joint_layout, load_policy
+from mjx_cascade.physics import resolve_impl
+from mjx_cascade.robots import scene
+from mjx_cascade.trajectory import heading_velocity, moving_average
+
+AXES = ("push", "slope", "rough", "mass")
+DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
+
+
+@dataclasses.dataclass(frozen=True)
+class Sweep:
+    """What a sweep tries. Forces in N, slopes in degrees, roughness in m, mass as a scale."""
+
+    axes: tuple[str, ...] = AXES
+    trials: int = 10  # per cell
+    speed: float = 0.3  # commanded forward velocity, m/s
+    seconds: float = 10.0
+    push_forces: tuple[float, ...] = (0.0, 25.0, 50.0, 75.0, 100.0, 125.0, 150.0)
+    push_duration: float = 0.2
+    push_after: float = 4.0  # s: pushes start within the gait cycle that follows
+    slopes: tuple[float, ...] = (-11.0, -8.0, -5.0, -2.0, 0.0, 2.0, 5.0, 8.0, 11.0)
+    roughness: tuple[float, ...] = (0.0, 0.01, 0.02, 0.03, 0.04)
+    mass_scales: tuple[float, ...] = (0.8, 0.85, 0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2)
+    judge_seconds: float = 3.0
+    tolerance: float = 0.15  # m/s
+    seed: int = 0
+
+    def __post_init__(self):
+        unknown = sorted(set(self.axes) - set(AXES))
+        if unknown or not self.axes:
+            raise ConfigError(f"unknown sweep axis {unknown[0] if unknown else None!r}; choose from {', '.join(AXES)}")
+        if self.trials < 1:
+            raise ConfigError("trials must be at least 1")
+        if not self.judge_seconds < self.seconds:
+            raise ConfigError("seconds must exceed judge_seconds")
+
+
+class Trials(NamedTuple):
+    """One row per trial (NumPy); `label` is (axis, level, direction or '')."""
+
+    label: list
+    cmd: np.ndarray  # [B, 3] vx, vy, yaw
+    push_t: np.ndarray  # [B] s
+    force: np.ndarray  # [B, 3] N, world frame
+    mass: np.ndarray  # [B] whole-robot mass scale
+    terrain: list  # [B] terrain dicts
+
+
+def trials(sweep: Sweep, step_time: float) -> Trials:
+    """Every trial of `sweep`; a push comes at a uniformly random phase of one gait cycle (two steps)."""
+    rng = np.random.default_rng(sweep.seed)
+    flat = {"type": "flat"}
+    rows = []  # (label, push_t, force, mass, terrain)
+    for axis in sweep.axes:
+        for i in range(sweep.trials):
+            if axis == "push":
+                for f in sweep.push_forces:
+                    for name, (dx, dy) in DIRECTIONS.items():
+                        t = sweep.push_after + rng.uniform(0.0, 2 * step_time)
+                        rows.append(((axis, f, name), t, (f * dx, f * dy, 0.0), 1.0, flat))
+            for level in {"slope": sweep.slopes, "rough": sweep.roughness, "mass": sweep.mass_scales}.get(axis, ()):
+                terrain = {"slope": {"type": "slope", "degrees": level},
+                           "rough": {"type": "rough", "amplitude": level, "seed": i}}.get(axis, flat)
+                rows.append(((axis, level, ""), np.inf, (0.0, 0.0, 0.0), level if axis == "mass" else 1.0, terrain))
+    label, push_t, force, mass, terrain = zip(*rows)
+    n = len(rows)
+    return Trials(list(label), np.tile([sweep.speed, 0.0, 0.0], (n, 1)), np.array(push_t),
+                  np.array(force), np.array(mass), list(terrain))
+
+
+def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep, hfields: np.ndarray | None = None,
+             index: np.ndarray | None = None) -> dict:
+    """Run trials `t` in one jitted call; `hfields [L, n]` and `index [B]` give each its terrain.
+
+    Returns `qpos [B, R, nq]`, `qvel [B, R, nv]`, `ground [B, R]` recorded every 10 ms and the
+    record times `t [R]`.
+    """
+    cfg, dt = env.cfg, env.dt
+    every = max(1, int(RECORD_PERIOD / dt + 1e-9))
+    records = int(np.ceil(sweep.seconds / (every * dt)))
+    rand = cfg.randomization if cfg.randomization.enabled else dataclasses.replace(cfg.randomization, mass=(1.0, 1.0), com=(1.0, 1.0))
+    axes = randomization.in_axes(env.model)
+    if hfields is not None:
+        axes = axes.tree_replace({"hfield_data": 0})
+    dur = sweep.push_duration
+
+    @jax.jit
+    def run(params, cmd, push_t, force, mass, keys, hfields, index):
+        k_model, k_reset = jax.vmap(jax.random.split)(keys).transpose(1, 0, 2)
+        model = randomization.randomize(env.model, k_model, rand)
+        model = model.tree_replace({"body_mass": model.body_mass * mass[:, None]})
+        if hfields is not None:
+            model = model.tree_replace({"hfield_data": hfields[index]})
+        state = jax.vmap(env.reset, in_axes=(None, 0, 0, axes))(params, k_reset, cmd, model)
+        step = jax.vmap(env.step, in_axes=(None, 0, 0, 0, axes))
+        observe = jax.vmap(env.observe, in_axes=(0, axes))
+
+        def record(state, r):
+            def physics(state, k):
+                now = (r * every + k) * dt  # the time at the start of this physics step
+                on = (now >= push_t) & (now < push_t + dur)
+                return step(params, state, cmd, jnp.where(on[:, None], force, 0.0), model), None
+
+            state, _ = jax.lax.scan(physics, state, jnp.arange(every))
+            return state, (state.data.qpos, state.data.qvel, observe(state.data, model).ground)
+
+        return jax.lax.scan(record, state, jnp.arange(records))[1]
+
+    keys = jax.random.split(jax.random.PRNGKey(sweep.seed), len(t.label))
+    f32 = lambda x: None if x is None else jnp.asarray(x, jnp.float32)  # noqa: E731
+    qpos, qvel, ground = jax.device_get(run(jnp.asarray(params), f32(t.cmd), f32(t.push_t), f32(t.force),
+                                            f32(t.mass), keys, f32(hfields), index))
+    swap = lambda x: np.swapaxes(np.asarray(x), 0, 1)  # noqa: E731
+    return {"t": (np.arange(records) + 1) * every * dt, "qpos": swap(qpos), "qvel": swap(qvel), "ground": swap(ground)}
+
+
+def judge(t: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, ground: np.ndarray, cmd: np.ndarray,
+          sweep: Sweep) -> dict:
+    """One trial's verdict from its recorded trajectory (arrays over time, `cmd [3]` constant)."""
+    fell = fallen(qpos, ground)
+    v, _ = heading_velocity(qpos, qvel)
+    v_avg = moving_average(v, t, 1.0)
+    last = t > t[-1] - sweep.judge_seconds
+    mae = np.mean(np.abs(v_avg[last] - cmd[:2]), axis=0)
+    ok = (not fell.any()) and bool(np.all(mae <= sweep.tolerance))
+    return {"success": ok, "fell": bool(fell.any()),
+            "fall_time": float(t[np.argmax(fell)]) if fell.any() else None,
+            "vx_mae": float(mae[0]), "vy_mae": float(mae[1])}
+
+
+def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = None) -> tuple[dict, dict]:
+    """`(results, trajectories)`: per-trial verdicts and success rates, and the recorded trials.
+
+    `results["cells"]` maps each axis to rows `{level, direction, trials, successes, rate}`;
+    `results["trials"]` lists every trial's label, push time and verdict.
+    """
+    t = trials(sweep, cfg.gait.step_time)
+    traj = {}
+    for on_plane in (True, False):
+        idx = np.nonzero([(tr["type"] == "flat") == on_plane for tr in t.terrain])[0]
+        if not len(idx):
+            continue
+        sub = Trials([t.label[i] for i in idx], t.cmd[idx], t.push_t[idx], t.force[idx], t.mass[idx],
+                     [t.terrain[i] for i in idx])
+        if on_plane:
+            env = make_env(cfg, batch=len(idx), model_path=model_path)
+            out = simulate(env, params, sub, sweep)
+        else:
+            kinds = list({str(sorted(tr.items())): tr for tr in sub.terrain}.values())
+            env = make_env(cfg, batch=len(idx), model_path=model_path, terrain=kinds)
+            hfields = np.stack([scene.hfield_data(env.robot.model, k) for k in kinds])
+            index = np.array([kinds.index(tr) for tr in sub.terrain])
+            out = simulate(env, params, sub, sweep, hfields, index)
+        for j, i in enumerate(idx):
+            traj[i] = {k: out[k] if k == "t" else out[k][j] for k in out}
+    verdicts = [judge(traj[i]["t"], traj[i]["qpos"], traj[i]["qvel"], traj[i]["ground"], t.cmd[i], sweep)
+                for i in range(len(t.label))]
+    return summarize(t, verdicts, sweep), {"trials": t, "traj": traj, **joint_layout(env.robot)}
+
+
+def summarize(t: Trials, verdicts: list[dict], sweep: Sweep) -> dict:
+    cells: dict = {}
+    for (axis, level, direction), v in zip(t.label, verdicts):
+        row = cells.setdefault(axis, {}).setdefault((level, direction), [0, 0])
+        row[0] += 1
+        row[1] += int(v["success"])
+    return {
+        "sweep": dataclasses.asdict(sweep),
+        "cells": {axis: [{"level": lv, "direction": d, "trials": n, "successes": s, "rate": s / n}
+                         for (lv, d), (n, s) in rows.items()] for axis, rows in cells.items()},
+        "trials": [{"axis": a, "level": lv, "direction": d,
+                    "push_t": None if not np.isfinite(pt) else float(pt), **v}
+                   for (a, lv, d), pt, v in zip(t.label, t.push_t, verdicts)],
+    }
+
+
+UNITS = {"push": ("push force", "N", 1.0), "slope": ("slope", "degrees", 1.0),
+         "rough": ("rough-ground amplitude", "cm", 100.0), "mass": ("mass scale", "x", 1.0)}
+
+
+def markdown(results: dict) -> str:
+    """The success-rate tables, one per axis (pushes: one column per direction)."""
+    out = []
+    for axis, rows in results["cells"].items():
+        name, unit, scale = UNITS[axis]
+        dirs = list(dict.fromkeys(r["direction"] for r in rows))
+        levels = list(dict.fromkeys(r["level"] for r in rows))
+        cell = {(r["level"], r["direction"]): f"{r['successes']}/{r['trials']}" for r in rows}
+        head = [f"{name} ({unit})"] + ([d for d in dirs] if dirs != [""] else ["success"])
+        out += [f"| {' | '.join(head)} |", "|" + " --- |" * len(head)]
+        out += [f"| {lv * scale:g} | " + " | ".join(cell[(lv, d)] for d in dirs) + " |" for lv in levels]
+        out.append("")
+    return "\n".join(out)
+
+
+def figures(results: dict, sim: dict, out: Path, title: str) -> list[str]:
+    """Fig. 11, 12 and 14 from the sweep's own trials; returns the files written.
+
+    Pushes: per direction, the first trial at the strongest force it recovered from (else the
+    strongest force). Terrains: the first trial of every level.
+    """
+    t, traj, verdicts = sim["trials"], sim["traj"], results["trials"]
+    written = []
+
+    def record(i):
+        return {**traj[i], "cmd": t.cmd[i], **{k: sim[k] for k in ("joints", "joint_qpos", "joint_qvel")}}
+
+    pushes = []
+    for d in DIRECTIONS:
+        mine = [i for i, v in enumerate(verdicts) if v["axis"] == "push" and v["direction"] == d and v["level"] > 0]
+        if mine:
+            won = [i for i in mine if verdicts[i]["success"]] or mine
+            i = max(won, key=lambda k: (verdicts[k]["level"], -k))
+            pushes.append((f"{d}, {verdicts[i]['level']:g} N", i))
+    if pushes:
+        dur = results["sweep"]["push_duration"]
+        plots.push_response([(label, record(i), t.push_t[i], dur) for label, i in pushes],
+                            out / "push_response.png", title=f"{title}: pushes")
+        label, i = pushes[0]
+        plots.push_limit_cycle(record(i), t.push_t[i], dur, out / "push_limit_cycle.png", title=f"{title}: {label} push")
+        written += ["push_response.png", "push_limit_cycle.png"]
+    groups = {}
+    for axis in ("slope", "rough"):
+        name, unit, scale = UNITS[axis]
+        firsts = {}
+        for i, v in enumerate(verdicts):
+            if v["axis"] == axis:
+                firsts.setdefault(v["level"], i)
+        if firsts:
+            groups[name] = [(f"{lv * scale:g} {unit}", record(i)) for lv, i in sorted(firsts.items())]
+    if groups:
+        plots.terrain_tracking(groups, out / "terrain_tracking.png", title=f"{title}: terrains")
+        written.append("terrain_tracking.png")
+    return written
+
+
+def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | None = None,
+          model_path: str | None = None, dt: float | None = None, impl: str | None = None) -> tuple[dict, dict]:
+    """Run the sweep with a checkpoint or the shipped policy and write `robustness.json`,
+    `robustness.md`, `robustness.png` and the Fig. 11, 12 and 14 plots into `out`.
+
+    Returns `(results, trajectories)` as `run` does, the results with the run's provenance.
+    """
+    cfg, params, meta = load_policy(robot, checkpoint_dir)
+    overrides = {k: v for k, v in (("physics.dt", dt), ("physics.impl", impl)) if v is not None}
+    cfg = cfg.override(**overrides) if overrides else cfg
+    start = time.perf_counter()
+    results, sim = run(cfg, params, sweep_cfg, model_path)
+    results = {
+        "robot": robot,
+        "device": jax.devices()[0].device_kind,
+        "backend": jax.default_backend(),
+        "impl": resolve_impl(cfg.physics.impl),
+        "dt": cfg.physics.dt,
+        "policy": {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params)},
+        "wall_clock_s": time.perf_counter() - start,
+        **results,
+    }
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    title = f"{robot} (generation {meta.get('generation')}, dt {cfg.physics.dt:g} s)"
+    plots.robustness(results, UNITS, out / "robustness.png", title=title)
+    results["figures"] = ["robustness.png"] + figures(results, sim, out, robot)
+    (out / "robustness.json").write_text(json.dumps(results, indent=2) + "\n")
+    (out / "robustness.md").write_text(report(results))
+    return results, sim
+
+
+def report(results: dict) -> str:
+    """`robustness.md`: how the sweep ran, then its tables."""
+    s = results["sweep"]
+    head = (f"# Robustness of {results['robot']}: success rate (no fall, and vx, vy within "
+            f"{s['tolerance']} m/s over the last {s['judge_seconds']:g} s)\n\n"
+            f"Policy generation {results['policy']['generation']} (sha256 {results['policy']['params_sha256'][:12]}); "
+            f"{s['trials']} trials per cell walking at {s['speed']} m/s for {s['seconds']:g} s; "
+            f"pushes of {s['push_duration']} s on the pelvis at a random phase after {s['push_after']:g} s; "
+            f"dt {results['dt']} s on {results['device']} ({results['impl']}), {results['wall_clock_s']:.0f} s wall-clock.\n\n")
+    return head + markdown(results)
