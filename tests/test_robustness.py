@@ -36,8 +36,10 @@ def test_every_cell_gets_its_trials_and_pushes_come_at_random_phases():
     seeds = {tr["seed"] for lab, tr in zip(t.label, t.terrain) if lab[0] == "rough"}
     assert seeds == {0, 1, 2}
     np.testing.assert_allclose(t.cmd, [[0.3, 0.0, 0.0]] * len(t.label))
-    with pytest.raises(ConfigError, match="unknown sweep axis"):
-        robustness.Sweep(axes=("wind",))
+    for bad, message in (({"axes": ("wind",)}, "unknown sweep axis"), ({"trials": 0}, "trials"),
+                         ({"seconds": 2.0}, "seconds must exceed")):
+        with pytest.raises(ConfigError, match=message):
+            robustness.Sweep(**bad)
 
 
 def _walk(v, seconds=10.0, fall_at=None):
