@@ -31,15 +31,20 @@ FALL_HEIGHT, FALL_TILT = 0.6, 0.6
 BOUNDS = {"vx": 0.10, "vy": 0.10, "yaw": 0.15}
 
 
-def load_policy(robot: str, checkpoint_dir: str | None) -> tuple[Config, np.ndarray, dict]:
-    """`(training config, flat parameters, metadata)` from a checkpoint, or the shipped policy."""
+def load_policy(robot: str, checkpoint_dir: str | None, dt: float | None = None,
+                impl: str | None = None) -> tuple[Config, np.ndarray, dict]:
+    """`(training config, flat parameters, metadata)` from a checkpoint, or the shipped policy;
+    `dt` and `impl`, where given, replace the config's physics time step and backend."""
     if checkpoint_dir:
         meta, params = checkpoint.read(checkpoint_dir)
         checkpoint.check_robot(meta, robot)
     else:
         meta, params = policies.load(robot)
     # the backend it trained on says nothing about where it runs now
-    return from_dict(meta["config"]).override(**{"physics.impl": "auto"}), params, meta
+    overrides = {"physics.impl": impl or "auto"}
+    if dt is not None:
+        overrides["physics.dt"] = dt
+    return from_dict(meta["config"]).override(**overrides), params, meta
 
 
 class Runner:
@@ -156,13 +161,7 @@ def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: st
              video: bool = True) -> dict:
     """Run `scenario` and write `trajectory.npz`, `metrics.json`, PNG plots and, where MuJoCo can
     render, `video.gif` into `out` (`metrics["video"]` names the file or says why there is none)."""
-    cfg, params, meta = load_policy(robot, checkpoint_dir)
-    overrides = {}
-    if dt is not None:
-        overrides["physics.dt"] = dt
-    if impl is not None:
-        overrides["physics.impl"] = impl
-    cfg = cfg.override(**overrides)
+    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl)
     runner = Runner(cfg, scenario, model_path)
     traj = runner(params)
     metrics = {

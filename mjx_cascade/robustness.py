@@ -272,9 +272,7 @@ def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | N
 
     Returns `(results, trajectories)` as `run` does, the results with the run's provenance.
     """
-    cfg, params, meta = load_policy(robot, checkpoint_dir)
-    overrides = {k: v for k, v in (("physics.dt", dt), ("physics.impl", impl)) if v is not None}
-    cfg = cfg.override(**overrides) if overrides else cfg
+    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl)
     start = time.perf_counter()
     results, sim = run(cfg, params, sweep_cfg, model_path)
     results = {
