@@ -102,8 +102,14 @@ def setup(cfg: Config, model_path: str | None = None) -> Trainer:
     if cfg.es.population % devices:
         raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
     env = make_env(cfg, batch=cfg.es.population, model_path=model_path)
-    state = es.init(env.init_params, jax.random.PRNGKey(cfg.seed), cfg.es)
+    state = replicate(es.init(env.init_params, jax.random.PRNGKey(cfg.seed), cfg.es))
     return Trainer(cfg, env, make_run(env, cfg.train.generations_per_call), state, devices)
+
+
+def replicate(state: es.ESState) -> es.ESState:
+    """The ES state on every device. Fresh, restored and notebook states all get this one
+    placement, so they all hit the same compiled program (and the same on-disk cache entry)."""
+    return jax.device_put(state, NamedSharding(population_sharding()[0].mesh, PartitionSpec()))
 
 
 def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock: float) -> dict:
@@ -159,8 +165,7 @@ def train(cfg: Config, out: str | Path, model_path: str | None = None, progress:
         checkpoint.check_compatible(meta, cfg.robot, trainer.num_params, trainer.env.action_dim)
         physics_steps, wall_clock = float(meta["physics_steps"]), float(meta["wall_clock_s"])
         log(f"resuming {out} at generation {int(state.generation)}")
-    # one placement for fresh and restored states, so both hit the same compiled program
-    state = jax.device_put(state, NamedSharding(population_sharding()[0].mesh, PartitionSpec()))
+        state = replicate(state)
     generation = int(state.generation)
     metrics_path = out / METRICS
     _truncate_metrics(metrics_path, generation)

@@ -19,11 +19,15 @@ def _script(name):
     return module
 
 
+# the CLI smoke run's settings (test_cli.py), so training compiles once for both; one standing scenario
+SMOKE = {"es.population": 4, "episode.seconds": 0.5}
+STAND = {"name": "stand", "duration": 1.0, "commands": [{"t": 0, "vx": 0.0, "vy": 0.0, "yaw": 0.0}]}
+
+
 def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
     ttw = _script("time_to_walk")
-    cfg = cassie_cfg.override(**{"es.population": 4, "train.generations_per_call": 1})
-    scen = scenario.parse({"name": "short", "duration": 1.0, "commands": [{"t": 0, "vx": 0.0, "vy": 0.0, "yaw": 0.0}]})
-    result = ttw.time_to_walk(cfg, [scen], dt=cfg.physics.dt, check_every=2, max_generations=3,
+    cfg = cassie_cfg.override(**SMOKE)
+    result = ttw.time_to_walk(cfg, [scenario.parse(STAND)], dt=cfg.physics.dt, check_every=2, max_generations=3,
                               max_seconds=600.0, log=lambda m: None)
     # checks at generation 2 and at the limit (3); stops early only on a pass
     assert [c["generation"] for c in result["checks"]] in ([2], [2, 3])
@@ -32,18 +36,18 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
     assert result["physics_steps"] > 0 and result["wall_clock_s"] > 0 and result["check_s"] > 0
     # the check's verdict is the evaluator's, from the trajectory alone: a 1-s scenario has no
     # segment long enough to judge, so it passes exactly when the robot stays up
-    check = result["checks"][-1]["scenarios"]["short"]
+    check = result["checks"][-1]["scenarios"]["stand"]
     assert check["segments"] == [] and check["passed"] == (not check["fell"])
     json.dumps(result)  # what the script writes
 
 
 def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     """One compiled simulation serves every policy (the time-to-walk checks rely on it)."""
-    scen = scenario.parse({"name": "s", "duration": 0.2, "commands": [{"t": 0, "vx": 0.0, "vy": 0.0, "yaw": 0.0}]})
-    run = evaluate.Runner(cassie_cfg, scen)
+    cfg = cassie_cfg.override(**SMOKE)  # the time-to-walk test's checks: one compile for both
+    run = evaluate.Runner(cfg, scenario.parse(STAND))
     from mjx_cascade.env import make_env
 
-    params = make_env(cassie_cfg).init_params
+    params = make_env(cfg).init_params
     other = np.asarray(params) + np.random.default_rng(0).normal(0.0, 0.5, params.shape).astype(np.float32)
     a, b = run(np.asarray(params)), run(other)
     assert a["qpos"].shape == b["qpos"].shape and not np.allclose(a["qpos"], b["qpos"])

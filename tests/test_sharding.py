@@ -17,8 +17,9 @@ import sys
 import mjx_cascade, jax, jax.numpy as jnp, numpy as np
 from mjx_cascade import config, train
 assert len(jax.devices()) == int(sys.argv[2]), jax.devices()
-cfg = config.robot_config("cassie").override(**{"es.population": 4, "episode.seconds": 0.1,
-    "episode.pool_size": 4, "train.generations_per_call": 1})
+# the CLI smoke run's settings: on one device this program is already in the compilation cache
+cfg = config.robot_config("cassie").override(**{"es.population": 4, "episode.seconds": 0.5,
+    "episode.pool_size": 4})
 trainer = train.setup(cfg)
 state, metrics = trainer.run(trainer.state, jnp.int32(1))
 np.save(sys.argv[1], np.stack([np.asarray(trainer.state.mean), np.asarray(state.mean)]))
@@ -26,7 +27,8 @@ np.save(sys.argv[1], np.stack([np.asarray(trainer.state.mean), np.asarray(state.
 
 
 def one_generation(path, devices):
-    flags = os.environ.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={devices}"
+    # one device is the default: no flag, so the cache key matches the CLI runs of test_cli.py
+    flags = os.environ.get("XLA_FLAGS", "") + (f" --xla_force_host_platform_device_count={devices}" if devices > 1 else "")
     res = subprocess.run([sys.executable, "-c", SCRIPT, str(path), str(devices)], capture_output=True, text=True,
                          timeout=600, cwd=ROOT, env={**os.environ, "XLA_FLAGS": flags, "JAX_PLATFORMS": "cpu"})
     assert res.returncode == 0, res.stderr[-3000:]
