@@ -129,11 +129,16 @@ class TerminationConfig:
 
 @dataclasses.dataclass(frozen=True)
 class RandomizationConfig:
-    """Table 5, sampled once per episode."""
+    """Table 5, sampled once per episode, and an optional push (not in the paper)."""
 
     enabled: bool
     mass: tuple[float, float]
     com: tuple[float, float]
+    # one horizontal push on the pelvis per episode: magnitude U(push_force) N in a uniformly random
+    # direction, for push_seconds, starting at U(push_after) s; [0, 0] (the default) pushes nothing
+    push_force: tuple[float, float] = (0.0, 0.0)
+    push_seconds: float = 0.2
+    push_after: tuple[float, float] = (1.0, 3.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -268,8 +273,10 @@ def _check_keys(cls: type, data: Any, prefix: str, complete: bool) -> dict:
             close = [n for n in names if n[:3] == str(key)[:3]]
             hint = f" (did you mean {prefix}{close[0]}?)" if close else ""
             raise ConfigError(f"unknown config key '{prefix}{key}'{hint}")
-    if complete:
-        missing = [n for n in names if n not in data]
+    if complete:  # a setting with a default may be absent (configs saved before it existed)
+        required = [f.name for f in dataclasses.fields(cls)
+                    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        missing = [n for n in required if n not in data]
         if missing:
             raise ConfigError(f"config key '{prefix}{missing[0]}' is missing")
     return typing.get_type_hints(cls)
@@ -374,6 +381,9 @@ def validate(cfg: Config) -> None:
     dr = cfg.randomization
     need(0 < dr.mass[0] <= dr.mass[1], "randomization.mass must be [low, high] with 0 < low <= high")
     need(0 < dr.com[0] <= dr.com[1], "randomization.com must be [low, high] with 0 < low <= high")
+    need(0 <= dr.push_force[0] <= dr.push_force[1], "randomization.push_force must be [low, high] with 0 <= low <= high")
+    need(dr.push_seconds > 0, "randomization.push_seconds must be positive")
+    need(0 <= dr.push_after[0] <= dr.push_after[1], "randomization.push_after must be [low, high] with 0 <= low <= high")
     need(es.population > 0 and es.population % 2 == 0,
          f"es.population must be a positive even number (antithetic pairs), got {es.population}")
     need(es.sigma > 0, "es.sigma must be positive")

@@ -18,6 +18,9 @@ from mjx_cascade.config import EpisodeConfig
 from mjx_cascade.env import Env, EnvState
 
 
+PUSH_STREAM = 3  # fold_in index of the episode key's push draws
+
+
 class EpisodeResult(NamedTuple):
     fitness: Array  # normalised return (env.fitness)
     steps: Array  # physics steps survived
@@ -51,11 +54,19 @@ def run_episodes(env: Env, params: Array, keys: Array) -> EpisodeResult:
         model, model_axes = env.model, None
     cmd = jax.vmap(lambda k: sample_command(k, cfg.episode))(k_cmd)
     state = jax.vmap(env.reset, in_axes=(0, 0, 0, model_axes))(params, k_reset, cmd, model)
-    step = jax.vmap(lambda p, s, c, m: env.step(p, s, c, model=m), in_axes=(0, 0, 0, model_axes))
+    if randomization.pushes_enabled(cfg.randomization):
+        # a key of its own, so enabling pushes leaves every other draw as it was
+        k_push = jax.vmap(lambda k: jax.random.fold_in(k, PUSH_STREAM))(keys)
+        pushes = jax.vmap(lambda k: randomization.push(k, cfg.randomization, env.dt))(k_push)
+        step = jax.vmap(lambda p, s, c, m, push: env.step(p, s, c, randomization.push_force(push, s.t), model=m),
+                        in_axes=(0, 0, 0, model_axes, 0))
+    else:
+        pushes = None
+        step = jax.vmap(lambda p, s, c, m, _: env.step(p, s, c, model=m), in_axes=(0, 0, 0, model_axes, None))
 
     def chunk(s: EnvState) -> EnvState:
         def body(s, _):
-            return step(params, s, cmd, model), None
+            return step(params, s, cmd, model, pushes), None
 
         return jax.lax.scan(body, s, None, length=cfg.episode.steps_per_check)[0]
 

@@ -4,6 +4,8 @@ import yaml
 from mjx_cascade import config
 from mjx_cascade.config import ConfigError
 
+from conftest import ROOT
+
 
 def test_robot_configs_carry_the_paper_tables():
     c, d = config.robot_config("cassie"), config.robot_config("digit")
@@ -63,6 +65,23 @@ def test_every_setting_is_in_the_shipped_yaml():
     del data["gait"]["step_time"]
     with pytest.raises(ConfigError, match="gait.step_time"):
         config.from_dict(data)
+    for robot in config.ROBOTS:  # settings that have defaults are written out too
+        raw = yaml.safe_load((ROOT / "configs" / f"{robot}.yaml").read_text())
+        assert set(raw["randomization"]) == set(data["randomization"]), robot
+
+
+def test_a_config_saved_before_training_pushes_existed_loads_without_them():
+    data = config.to_dict(config.robot_config("cassie"))
+    for key in ("push_force", "push_seconds", "push_after"):
+        del data["randomization"][key]
+    assert config.from_dict(data).randomization.push_force == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
+                                        ("randomization.push_seconds", 0), ("randomization.push_after", [3, 1])])
+def test_bad_push_settings_are_refused(key, value):
+    with pytest.raises(ConfigError, match=key):
+        config.robot_config("cassie").override(**{key: value})
 
 
 def test_set_assignments_are_parsed_once_for_every_command_line():

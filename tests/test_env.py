@@ -60,6 +60,20 @@ def test_an_untrained_policy_steps_in_place(standing_still):
     assert np.all(np.asarray(episodes.walking_steps) >= int(0.75 * 2.0 / env.cfg.gait.step_time))
 
 
+def test_a_training_push_topples_the_episodes_that_stood(cassie, cassie_pool, standing_still):
+    """The same episodes with `randomization.push_force` set: a 600 N push from 0.5 s ends them all,
+    none before the push starts."""
+    calm_env, _ = standing_still
+    cfg = calm_env.cfg.override(**{"randomization.push_force": [600.0, 600.0], "randomization.push_after": [0.5, 0.5]})
+    env = Env(cassie, cfg, cassie_pool, batch=4)
+    params = jnp.stack([env.init_params] * 4)
+    keys = jax.random.split(jax.random.PRNGKey(1), 4)
+    pushed = jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
+    steps = np.asarray(pushed.steps)
+    assert np.all(np.asarray(pushed.terminated)) and np.all(steps < env.episode_steps)
+    assert np.all(steps > round(0.5 / env.dt))
+
+
 class FaultyEnv(Env):
     """Blows up environment 0's physics after 20 steps, as a diverging simulation would."""
 

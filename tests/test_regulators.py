@@ -1,6 +1,8 @@
 """Regulator signs: pure functions, then the whole controller on hand-built states checked
 against the model's own kinematics (would the swing foot really land where Raibert says?)."""
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import mujoco
@@ -78,16 +80,22 @@ def standing(cassie_env, cassie_pool):
     env = cassie_env
     data = env.data_template.replace(qpos=jnp.asarray(cassie_pool[0][0]), qvel=jnp.zeros(env.robot.model.nv))
     data = jax.jit(lambda d: mjx.forward(env.model, d))(data)
-    state = env.reset(env.init_params, jax.random.PRNGKey(0), jnp.zeros(3))
+    state = jax.jit(env.reset)(env.init_params, jax.random.PRNGKey(0), jnp.zeros(3))
     # right foot in stance, a quarter into the step: too early for a touchdown to end it
     ctrl = state.ctrl.replace(stance=jnp.int32(gait.RIGHT), step_start=jnp.float32(-0.1))
-    return env, data, env.observe(data), ctrl
+    return env, data, jax.jit(env.observe)(data), ctrl
+
+
+@functools.cache
+def _control(env):
+    """`env.control`, compiled once for every test here (run op by op it takes seconds a call)."""
+    return jax.jit(env.control)
 
 
 def _obs_change(env, obs, ctrl, **change):
     """Joint torques [2, J] that measuring `change` instead of `obs` adds."""
-    base, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
-    moved, _, _ = env.control(env.init_params, ctrl, obs._replace(**change), jnp.float32(0.0), jnp.zeros(3))
+    base, _, _ = _control(env)(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+    moved, _, _ = _control(env)(env.init_params, ctrl, obs._replace(**change), jnp.float32(0.0), jnp.zeros(3))
     return np.asarray(moved - base)
 
 
@@ -137,8 +145,8 @@ def test_heading_error_turns_the_landing_foot_against_it(standing):
     straightening the hip during the next stance turns the pelvis back."""
     env, data, obs, ctrl = standing
     cmd_turned = jnp.array([0.0, 0.0, -0.3])  # pelvis yaw (0) is 0.3 rad beyond the command
-    base, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
-    moved, _, _ = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), cmd_turned)
+    base, _, _ = _control(env)(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+    moved, _, _ = _control(env)(env.init_params, ctrl, obs, jnp.float32(0.0), cmd_turned)
     j = env.robot.hip_yaw
     dq = float(moved[gait.LEFT, j] - base[gait.LEFT, j]) / env.robot.kp[j]
     _, rot = _swing_foot_shift(env, data, j, dq)
@@ -154,7 +162,7 @@ def test_torso_torques_right_the_pelvis(standing):
     stance = gait.RIGHT
     for axis, joint, tilt in ((0, r.hip_roll, [0.1, 0.0, 0.0]), (1, r.hip_pitch, [0.0, 0.1, 0.0])):
         tilted = obs._replace(rpy=obs.rpy + jnp.array(tilt), omega=jnp.zeros(3))
-        u, _, _ = env.control(env.init_params, ctrl, tilted, jnp.float32(0.0), jnp.zeros(3))
+        u, _, _ = _control(env)(env.init_params, ctrl, tilted, jnp.float32(0.0), jnp.zeros(3))
         jnt = int(np.nonzero(m.jnt_qposadr == r.qpos_adr[stance, joint])[0][0])
         on_pelvis = -float(u[stance, joint]) * d.xaxis[jnt]  # a joint torque's reaction on its parent
         assert on_pelvis[axis] < 0, (axis, on_pelvis)
@@ -170,7 +178,7 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
     held = ctrl.replace(hold=obs.q[gait.RIGHT, hips] + 0.05)
 
     def stance_hips(step_start):
-        u, ended, _ = env.control(env.init_params, held.replace(step_start=jnp.float32(step_start)), tilted,
+        u, ended, _ = _control(env)(env.init_params, held.replace(step_start=jnp.float32(step_start)), tilted,
                                   jnp.float32(0.0), jnp.zeros(3))
         assert not bool(ended)
         return np.asarray(u[gait.RIGHT, hips])
