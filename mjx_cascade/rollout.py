@@ -1,4 +1,5 @@
-"""Episodes: sample a command and a model, start standing, run the controller, score it.
+"""Episodes: sample a command, a model and (if configured) a push, start standing, run the
+controller, score it.
 
 Episodes run in chunks of `steps_per_check` physics steps inside a `lax.while_loop` that
 stops when every episode of the batch is done, so generations whose members all fall early
