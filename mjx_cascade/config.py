@@ -40,6 +40,9 @@ class EpisodeConfig:
     pool_size: int  # balanced initial states from the standing controller
     settle_seconds: float
     steps_per_check: int  # physics steps between checks that every env is done
+    # a second command, drawn like the first, takes over at U(command_change) s (not in the
+    # paper, whose episodes hold one command); [0, 0] (the default) keeps one command
+    command_change: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -356,6 +359,8 @@ def validate(cfg: Config) -> None:
     need(e.pool_size >= 1, "episode.pool_size must be >= 1")
     need(e.settle_seconds > 0, "episode.settle_seconds must be positive")
     need(e.steps_per_check >= 1, "episode.steps_per_check must be >= 1")
+    need(0 <= e.command_change[0] <= e.command_change[1],
+         "episode.command_change must be [low, high] with 0 <= low <= high")
     need(g.bezier_order >= 2, "gait.bezier_order must be >= 2")
     need(g.step_time > 0, "gait.step_time must be positive")
     need(0 < g.min_phase < g.max_phase, "gait needs 0 < min_phase < max_phase")

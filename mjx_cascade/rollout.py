@@ -1,5 +1,5 @@
-"""Episodes: sample a command, a model and (if configured) a push, start standing, run the
-controller, score it.
+"""Episodes: sample a command, a model and (if configured) a push and a later second command,
+start standing, run the controller, score it.
 
 Episodes run in chunks of `steps_per_check` physics steps inside a `lax.while_loop` that
 stops when every episode of the batch is done, so generations whose members all fall early
@@ -8,7 +8,7 @@ cost only as long as their longest survivor.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -19,7 +19,7 @@ from mjx_cascade.config import EpisodeConfig
 from mjx_cascade.env import Env, EnvState
 
 
-PUSH_STREAM = 3  # fold_in index of the episode key's push draws
+PUSH_STREAM, COMMAND_STREAM = 3, 4  # fold_in indices of the episode key's push and second-command draws
 
 
 class EpisodeResult(NamedTuple):
@@ -36,6 +36,35 @@ def sample_command(key: Array, cfg: EpisodeConfig) -> Array:
     lo = jnp.array([cfg.vx[0], cfg.vy[0], cfg.yaw[0]])
     hi = jnp.array([cfg.vx[1], cfg.vy[1], cfg.yaw[1]])
     return jax.random.uniform(key, (3,), minval=lo, maxval=hi)
+
+
+def command_changes(cfg: EpisodeConfig) -> bool:
+    return cfg.command_change[1] > 0.0
+
+
+def second_command(key: Array, cfg: EpisodeConfig, dt: float) -> tuple[Array, Array]:
+    """`(command [3], first step it applies to)`: drawn like the first, at U(command_change) s."""
+    k_cmd, k_at = jax.random.split(key)
+    at = jax.random.uniform(k_at, minval=cfg.command_change[0], maxval=cfg.command_change[1])
+    return sample_command(k_cmd, cfg), jnp.round(at / dt).astype(jnp.int32)
+
+
+def schedules(env: Env, keys: Array, cmd: Array) -> tuple[Callable, Callable]:
+    """Functions of the episodes' step counters `t [B]`: the command `[B, 3]` (`cmd`, then a second
+    one if `episode.command_change` asks) and the push force `[B, 3]` (None without pushes, which
+    leaves the compiled step as it was). Each draw has a key of its own, so enabling one leaves
+    every other draw as it was."""
+    cfg = env.cfg
+    command, force = (lambda t: cmd), (lambda t: None)
+    if command_changes(cfg.episode):
+        k_second = jax.vmap(lambda k: jax.random.fold_in(k, COMMAND_STREAM))(keys)
+        later, change_at = jax.vmap(lambda k: second_command(k, cfg.episode, env.dt))(k_second)
+        command = lambda t: jnp.where((t >= change_at)[:, None], later, cmd)  # noqa: E731
+    if randomization.pushes_enabled(cfg.randomization):
+        k_push = jax.vmap(lambda k: jax.random.fold_in(k, PUSH_STREAM))(keys)
+        pushes = jax.vmap(lambda k: randomization.push(k, cfg.randomization, env.dt))(k_push)
+        force = lambda t: jax.vmap(randomization.push_force)(pushes, t)  # noqa: E731
+    return command, force
 
 
 def run_episodes(env: Env, params: Array, keys: Array) -> EpisodeResult:
@@ -55,19 +84,12 @@ def run_episodes(env: Env, params: Array, keys: Array) -> EpisodeResult:
         model, model_axes = env.model, None
     cmd = jax.vmap(lambda k: sample_command(k, cfg.episode))(k_cmd)
     state = jax.vmap(env.reset, in_axes=(0, 0, 0, model_axes))(params, k_reset, cmd, model)
-    if randomization.pushes_enabled(cfg.randomization):
-        # a key of its own, so enabling pushes leaves every other draw as it was
-        k_push = jax.vmap(lambda k: jax.random.fold_in(k, PUSH_STREAM))(keys)
-        pushes = jax.vmap(lambda k: randomization.push(k, cfg.randomization, env.dt))(k_push)
-        step = jax.vmap(lambda p, s, c, m, push: env.step(p, s, c, randomization.push_force(push, s.t), model=m),
-                        in_axes=(0, 0, 0, model_axes, 0))
-    else:
-        pushes = None
-        step = jax.vmap(lambda p, s, c, m, _: env.step(p, s, c, model=m), in_axes=(0, 0, 0, model_axes, None))
+    command, force = schedules(env, keys, cmd)
+    step = jax.vmap(lambda p, s, c, f, m: env.step(p, s, c, f, model=m), in_axes=(0, 0, 0, 0, model_axes))
 
     def chunk(s: EnvState) -> EnvState:
         def body(s, _):
-            return step(params, s, cmd, model, pushes), None
+            return step(params, s, command(s.t), force(s.t), model), None
 
         return jax.lax.scan(body, s, None, length=cfg.episode.steps_per_check)[0]
 

@@ -67,19 +67,23 @@ def test_every_setting_is_in_the_shipped_yaml():
         config.from_dict(data)
     for robot in config.ROBOTS:  # settings that have defaults are written out too
         raw = yaml.safe_load((ROOT / "configs" / f"{robot}.yaml").read_text())
-        assert set(raw["randomization"]) == set(data["randomization"]), robot
+        full = config.to_dict(config.robot_config(robot))
+        assert all(set(raw[k]) == set(full[k]) for k in full if isinstance(full[k], dict)), robot
 
 
-def test_a_config_saved_before_training_pushes_existed_loads_without_them():
+def test_a_config_saved_before_pushes_and_command_changes_existed_loads_without_them():
     data = config.to_dict(config.robot_config("cassie"))
     for key in ("push_force", "push_seconds", "push_after"):
         del data["randomization"][key]
-    assert config.from_dict(data).randomization.push_force == (0.0, 0.0)
+    del data["episode"]["command_change"]
+    cfg = config.from_dict(data)
+    assert cfg.randomization.push_force == (0.0, 0.0) and cfg.episode.command_change == (0.0, 0.0)
 
 
 @pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
-                                        ("randomization.push_seconds", 0), ("randomization.push_after", [3, 1])])
-def test_bad_push_settings_are_refused(key, value):
+                                        ("randomization.push_seconds", 0), ("randomization.push_after", [3, 1]),
+                                        ("episode.command_change", [3, 1]), ("episode.command_change", [-1, 1])])
+def test_bad_push_and_command_change_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})
 

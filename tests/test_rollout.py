@@ -1,0 +1,46 @@
+"""Episode schedules: the command (one, or a second from a random time on) and the push force."""
+
+import types
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from mjx_cascade import config, rollout
+
+B = 256
+
+
+def _schedules(**over):
+    cfg = config.robot_config("cassie").override(**over)
+    env = types.SimpleNamespace(cfg=cfg, dt=cfg.physics.dt)
+    keys = jax.random.split(jax.random.PRNGKey(0), B)
+    cmd = jax.vmap(lambda k: rollout.sample_command(k, cfg.episode))(keys)
+    return env, keys, cmd, *rollout.schedules(env, keys, cmd)
+
+
+def test_by_default_one_command_and_no_push():
+    _, _, cmd, command, force = _schedules()
+    t = jnp.arange(B)
+    assert command(t) is cmd and force(t) is None
+
+
+def test_a_second_command_takes_over_at_its_own_time_in_the_window():
+    env, keys, cmd, command, force = _schedules(**{"episode.command_change": [1.0, 3.0]})
+    later, at = jax.vmap(lambda k: rollout.second_command(jax.random.fold_in(k, rollout.COMMAND_STREAM),
+                                                          env.cfg.episode, env.dt))(keys)
+    at = np.asarray(at)
+    assert np.all((at >= 1000) & (at <= 3000)) and np.std(at) > 400  # dt 1 ms
+    np.testing.assert_array_equal(command(jnp.asarray(at - 1)), cmd)
+    np.testing.assert_array_equal(command(jnp.asarray(at)), later)
+    e = env.cfg.episode
+    lo, hi = np.array([e.vx[0], e.vy[0], e.yaw[0]]), np.array([e.vx[1], e.vy[1], e.yaw[1]])
+    assert np.all((np.asarray(later) >= lo) & (np.asarray(later) <= hi))
+    assert np.mean(np.abs(np.asarray(later) - np.asarray(cmd))[:, 0]) > 0.2  # drawn afresh
+    assert force(jnp.asarray(at)) is None
+
+
+def test_pushes_act_only_inside_their_window():
+    _, _, _, _, force = _schedules(**{"randomization.push_force": [50.0, 50.0], "randomization.push_after": [1.0, 1.0]})
+    for t, expect in ((999, 0.0), (1000, 50.0), (1199, 50.0), (1200, 0.0)):
+        np.testing.assert_allclose(np.linalg.norm(np.asarray(force(jnp.full(B, t))), axis=1), expect, rtol=1e-5)
