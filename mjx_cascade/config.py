@@ -82,6 +82,9 @@ class RegulatorConfig:
     k_i_drift: float  # PI drift terms beta_x, beta_y: rad per (m/s) per step
     drift_limit: float  # |beta| bound, rad
     slope_estimation: bool  # swing foot parallel to the stance foot (Sec. IV-A)
+    # stance knee extension per m of pelvis height below rewards.height (regulators.height_fix;
+    # not in the paper): 0, the default, leaves the pelvis height to the learned stance knee
+    k_height: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -371,6 +374,7 @@ def validate(cfg: Config) -> None:
     r = cfg.regulators
     need(0 < r.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")
     need(r.drift_limit >= 0, "regulators.drift_limit must be >= 0")
+    need(r.k_height >= 0, "regulators.k_height must be >= 0")
     rw = cfg.rewards
     need(rw.rho_v > 0 and rw.epsilon > 0 and rw.rho_d > 0, "rewards.rho_v, epsilon, rho_d must be positive")
     need(rw.e_vx > 0 and rw.e_vy > 0 and rw.e_height > 0, "rewards error bands must be positive")

@@ -230,6 +230,9 @@ class Env:
         ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
         ref = ref.at[gait.SWING, r.hip_yaw].add(-jnp.asarray(r.yaw_sign)[swing_leg] * turn)
+        if reg.k_height > 0:  # without it the compiled controller is unchanged
+            lift = regulators.height_fix(obs.pos[2] - obs.ground, cfg.rewards.height, reg)
+            ref = ref.at[gait.STANCE, r.knee].add(jnp.asarray(r.knee_extension)[stance] * lift)
         ref = gait.role_to_absolute(ref, stance, r.mirror)
         ref_v = gait.role_to_absolute(ref_v, stance, r.mirror)
 

@@ -1,6 +1,7 @@
 """Regulator signs: pure functions, then the whole controller on hand-built states checked
 against the model's own kinematics (would the swing foot really land where Raibert says?)."""
 
+import dataclasses
 import functools
 
 import jax
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from mjx_cascade import config, gait, regulators
+from mjx_cascade.env import Env
 from mjx_cascade.physics import mjx
 
 REG = config.robot_config("cassie").regulators
@@ -63,6 +65,14 @@ def test_drift_integrates_the_step_error_within_bounds():
     for _ in range(100):
         beta = regulators.drift_update(beta, jnp.array([0.5, -0.5]), jnp.zeros(2), REG)
     np.testing.assert_allclose(beta, [REG.drift_limit, -REG.drift_limit], atol=1e-6)
+
+
+def test_height_fix_extends_only_for_a_sag_and_saturates():
+    reg = dataclasses.replace(REG, k_height=2.0)
+    assert float(regulators.height_fix(jnp.float32(0.86), 0.91, reg)) == pytest.approx(0.1)
+    assert float(regulators.height_fix(jnp.float32(0.96), 0.91, reg)) == pytest.approx(-0.1)
+    assert float(regulators.height_fix(jnp.float32(0.5), 0.91, reg)) == pytest.approx(2.0 * regulators.HEIGHT_ERROR_LIMIT)
+    assert float(regulators.height_fix(jnp.float32(0.5), 0.91, REG)) == 0.0  # off by default
 
 
 def test_torso_torque_opposes_tilt():
@@ -187,3 +197,32 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
     late = -reg.blend_phase * env.cfg.gait.step_time - 0.01
     torso = np.asarray(regulators.torso_torque(tilted.rpy, tilted.omega, reg))
     np.testing.assert_allclose(np.abs(stance_hips(late)), np.abs(torso), rtol=1e-4)
+
+
+def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing):
+    """With `k_height`, a pelvis 5 cm below the desired height turns the stance knee by
+    k_height * 0.05 rad the way that lengthens the leg; the default, 0, changes nothing."""
+    plain, data, obs, ctrl = standing
+    cfg = plain.cfg.override(**{"regulators.k_height": 2.0})
+    env, r, z = Env(cassie, cfg, cassie_pool), cassie, cfg.rewards.height
+
+    def stance_knee(e, height):
+        u, _, _ = _control(e)(e.init_params, ctrl, obs._replace(pos=obs.pos.at[2].set(obs.ground + height)),
+                              jnp.float32(0.0), jnp.zeros(3))
+        return float(u[gait.RIGHT, r.knee])
+
+    assert stance_knee(plain, z - 0.05) == pytest.approx(stance_knee(plain, z))
+    dq = (stance_knee(env, z - 0.05) - stance_knee(env, z)) / r.kp[r.knee]
+    assert abs(dq) == pytest.approx(2.0 * 0.05, rel=1e-3)
+    m = r.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = np.asarray(data.qpos)
+    hip = int(np.nonzero(m.jnt_qposadr == r.qpos_adr[gait.RIGHT, r.hip_pitch])[0][0])
+
+    def leg_length():
+        mujoco.mj_kinematics(m, d)
+        return np.linalg.norm(d.xpos[r.foot_body[gait.RIGHT]] - d.xanchor[hip])
+
+    before = leg_length()
+    d.qpos[r.qpos_adr[gait.RIGHT, r.knee]] += dq
+    assert leg_length() > before + 0.003  # 6 mm for the 0.1 rad here
