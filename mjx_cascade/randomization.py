@@ -55,14 +55,19 @@ def pushes_enabled(cfg: RandomizationConfig) -> bool:
     return cfg.push_force[1] > 0.0
 
 
+def random_step(key: Array, window: tuple[float, float], dt: float) -> Array:
+    """The physics step nearest a time drawn uniformly from `window` (s)."""
+    return jnp.round(jax.random.uniform(key, minval=window[0], maxval=window[1]) / dt).astype(jnp.int32)
+
+
 def push(key: Array, cfg: RandomizationConfig, dt: float) -> Push:
     """One episode's push: magnitude U(push_force), direction U(0, 2 pi), start U(push_after)."""
     k_mag, k_dir, k_start = jax.random.split(key, 3)
     magnitude = jax.random.uniform(k_mag, minval=cfg.push_force[0], maxval=cfg.push_force[1])
     angle = jax.random.uniform(k_dir, maxval=2.0 * jnp.pi)
-    start = jnp.round(jax.random.uniform(k_start, minval=cfg.push_after[0], maxval=cfg.push_after[1]) / dt)
+    start = random_step(k_start, cfg.push_after, dt)
     force = magnitude * jnp.stack([jnp.cos(angle), jnp.sin(angle), 0.0])
-    return Push(force, start.astype(jnp.int32), (start + round(cfg.push_seconds / dt)).astype(jnp.int32))
+    return Push(force, start, start + round(cfg.push_seconds / dt))
 
 
 def push_force(p: Push, t: Array) -> Array:

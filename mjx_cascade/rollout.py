@@ -45,8 +45,7 @@ def command_changes(cfg: EpisodeConfig) -> bool:
 def second_command(key: Array, cfg: EpisodeConfig, dt: float) -> tuple[Array, Array]:
     """`(command [3], first step it applies to)`: drawn like the first, at U(command_change) s."""
     k_cmd, k_at = jax.random.split(key)
-    at = jax.random.uniform(k_at, minval=cfg.command_change[0], maxval=cfg.command_change[1])
-    return sample_command(k_cmd, cfg), jnp.round(at / dt).astype(jnp.int32)
+    return sample_command(k_cmd, cfg), randomization.random_step(k_at, cfg.command_change, dt)
 
 
 def schedules(env: Env, keys: Array, cmd: Array) -> tuple[Callable, Callable]:
