@@ -12,6 +12,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+import jax
 import numpy as np
 import orbax.checkpoint as ocp
 
@@ -60,12 +61,21 @@ def read(path: str | Path) -> tuple[dict, np.ndarray]:
     step = mngr.latest_step()
     try:
         meta = mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore())).meta
-        state = mngr.restore(step, args=ocp.args.Composite(state=ocp.args.StandardRestore())).state
+        state = _read_numpy(path / str(step) / "state")
     except Exception as e:  # orbax raises many kinds for a damaged or foreign directory
         raise ConfigError(f"{path} holds no readable checkpoint ({type(e).__name__})") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise ConfigError(f"{path} is not an mjx_cascade checkpoint")
     return meta, np.asarray(state["mean"], dtype=np.float32)
+
+
+def _read_numpy(path: Path) -> dict:
+    """A saved state as host numpy arrays, whatever devices saved it (a restore that keeps the
+    saved sharding refuses a checkpoint written on another device count)."""
+    with ocp.PyTreeCheckpointer() as c:
+        tree = c.metadata(path).item_metadata.tree
+        args = jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree)
+        return c.restore(path, args=ocp.args.PyTreeRestore(restore_args=args))
 
 
 def check_robot(meta: dict, robot: str) -> None:

@@ -1,5 +1,6 @@
 """The population axis is sharded over every local device: one generation on 1 and on 4
-(simulated) CPU devices gives the same parameters within floating-point tolerance."""
+(simulated) CPU devices gives the same parameters within floating-point tolerance, and a
+checkpoint saved on 4 devices reads on 1."""
 
 import os
 import subprocess
@@ -9,13 +10,15 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
+from mjx_cascade import checkpoint
 
 pytestmark = pytest.mark.slow
 
 SCRIPT = """
 import sys
+from pathlib import Path
 import mjx_cascade, jax, jax.numpy as jnp, numpy as np
-from mjx_cascade import config, train
+from mjx_cascade import checkpoint, config, train
 assert len(jax.devices()) == int(sys.argv[2]), jax.devices()
 # the CLI smoke run's settings: on one device this program is already in the compilation cache
 cfg = config.robot_config("cassie").override(**{"es.population": 4, "episode.seconds": 0.5,
@@ -23,6 +26,7 @@ cfg = config.robot_config("cassie").override(**{"es.population": 4, "episode.sec
 trainer = train.setup(cfg)
 state, metrics = trainer.run(trainer.state, jnp.int32(1))
 np.save(sys.argv[1], np.stack([np.asarray(trainer.state.mean), np.asarray(state.mean)]))
+checkpoint.save(checkpoint.manager(Path(sys.argv[1]).with_suffix("")), 1, state, {"robot": "cassie"})
 """
 
 
@@ -40,3 +44,6 @@ def test_one_and_four_devices_agree(tmp_path):
     _, four = one_generation(tmp_path / "four.npy", 4)
     assert np.all(np.isfinite(one)) and np.max(np.abs(one - start)) > 1e-4  # the generation moved them
     np.testing.assert_allclose(four, one, rtol=1e-5, atol=1e-6)
+    meta, params = checkpoint.read(tmp_path / "four")  # this process has one device
+    assert meta["generation"] == 1
+    np.testing.assert_array_equal(params, four)
