@@ -15,6 +15,7 @@ from typing import NamedTuple, Sequence
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 from flax import struct
 from jax import Array
@@ -91,6 +92,7 @@ class Env:
         self.data_template = make_data(robot.model, self.impl, cfg.physics, batch)
         self.pool_qpos = jnp.asarray(pool[0], dtype=jnp.float32)
         self.pool_qvel = jnp.asarray(pool[1], dtype=jnp.float32)
+        self.foot_rest = _foot_rest(robot, pool[0])
         self.dt = float(robot.model.opt.timestep)
         self.episode_steps = int(round(cfg.episode.seconds / self.dt))
         n, order = robot.num_learned, cfg.gait.bezier_order
@@ -231,7 +233,10 @@ class Env:
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
         ref = ref.at[gait.SWING, r.hip_yaw].add(-jnp.asarray(r.yaw_sign)[swing_leg] * turn)
         if reg.k_height > 0:  # without it the compiled controller is unchanged
-            lift = regulators.height_fix(obs.pos[2] - obs.ground, cfg.rewards.height, reg)
+            # the ground under the stance foot, from its sole: a robot knows this, and on a slope
+            # the ground under the pelvis is not what the stance leg stands on
+            leg_height = obs.pos[2] - obs.feet[stance, 2] + self.foot_rest
+            lift = regulators.height_fix(leg_height, cfg.rewards.height, reg)
             ref = ref.at[gait.STANCE, r.knee].add(jnp.asarray(r.knee_extension)[stance] * lift)
         ref = gait.role_to_absolute(ref, stance, r.mirror)
         ref_v = gait.role_to_absolute(ref_v, stance, r.mirror)
@@ -313,6 +318,17 @@ class Env:
     def fitness(self, state: EnvState) -> Array:
         """Episode return per second of the full episode: the normalised mean reward (Fig. 6)."""
         return state.ret / (self.episode_steps * self.dt)
+
+
+def _foot_rest(robot: Robot, qpos: np.ndarray) -> float:
+    """Height of the foot bodies' origins above level ground in the balanced standing states."""
+    d = mujoco.MjData(robot.model)
+    heights = []
+    for q in qpos:
+        d.qpos[:] = q
+        mujoco.mj_kinematics(robot.model, d)
+        heights.append(d.xpos[robot.foot_body, 2])
+    return float(np.mean(heights))
 
 
 def make_env(cfg: Config, batch: int = 1, model_path: str | None = None,

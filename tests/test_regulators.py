@@ -200,14 +200,16 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
 
 
 def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing):
-    """With `k_height`, a pelvis 5 cm below the desired height turns the stance knee by
-    k_height * 0.05 rad the way that lengthens the leg; the default, 0, changes nothing."""
+    """With `k_height`, a pelvis 5 cm below the desired height over the stance foot's ground turns
+    the stance knee by k_height * 0.05 rad the way that lengthens the leg; the default, 0,
+    changes nothing."""
     plain, data, obs, ctrl = standing
     cfg = plain.cfg.override(**{"regulators.k_height": 2.0})
     env, r, z = Env(cassie, cfg, cassie_pool), cassie, cfg.rewards.height
 
     def stance_knee(e, height):
-        u, _, _ = _control(e)(e.init_params, ctrl, obs._replace(pos=obs.pos.at[2].set(obs.ground + height)),
+        ground = obs.feet[ctrl.stance, 2] - e.foot_rest  # under the stance foot
+        u, _, _ = _control(e)(e.init_params, ctrl, obs._replace(pos=obs.pos.at[2].set(ground + height)),
                               jnp.float32(0.0), jnp.zeros(3))
         return float(u[gait.RIGHT, r.knee])
 
