@@ -72,10 +72,16 @@ def read(path: str | Path) -> tuple[dict, np.ndarray]:
 def _read_numpy(path: Path) -> dict:
     """A saved state as host numpy arrays, whatever devices saved it (a restore that keeps the
     saved sharding refuses a checkpoint written on another device count)."""
-    with ocp.PyTreeCheckpointer() as c:
-        tree = c.metadata(path).item_metadata.tree
-        args = jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree)
-        return c.restore(path, args=ocp.args.PyTreeRestore(restore_args=args))
+    absl = logging.getLogger("absl")
+    level = absl.level
+    absl.setLevel(logging.ERROR)  # the step's metadata file is one level up, and orbax warns of it
+    try:
+        with ocp.PyTreeCheckpointer() as c:
+            tree = c.metadata(path).item_metadata.tree
+            args = jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), tree)
+            return c.restore(path, args=ocp.args.PyTreeRestore(restore_args=args))
+    finally:
+        absl.setLevel(level)
 
 
 def check_robot(meta: dict, robot: str) -> None:
