@@ -233,8 +233,8 @@ class Env:
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
         ref = ref.at[gait.SWING, r.hip_yaw].add(-jnp.asarray(r.yaw_sign)[swing_leg] * turn)
         if reg.k_height > 0:  # without it the compiled controller is unchanged
-            # the ground under the stance foot, from its sole: a robot knows this, and on a slope
-            # the ground under the pelvis is not what the stance leg stands on
+            # over the ground the stance foot stands on, from the foot's position: what a robot
+            # can measure through its leg (it does not know the terrain under its pelvis)
             leg_height = obs.pos[2] - obs.feet[stance, 2] + self.foot_rest
             lift = regulators.height_fix(leg_height, cfg.rewards.height, reg)
             ref = ref.at[gait.STANCE, r.knee].add(jnp.asarray(r.knee_extension)[stance] * lift)

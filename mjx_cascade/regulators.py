@@ -99,9 +99,8 @@ def height_fix(height: Array, height_des: float, cfg: RegulatorConfig) -> Array:
     Not in the paper. After a forward push the swing foot lands early with its knee still bent
     and the pelvis sinks a little further each step (0.92 to 0.79 m in four steps, then a fall);
     nothing in eq. 20-26 acts on height, and the learned stance knee only sees the commanded and
-    step-averaged velocities. The height is taken over the stance foot's ground, not the ground
-    under the pelvis: walking down a slope, the latter reads high and the shortened stance leg
-    speeds the robot up into a fall.
+    step-averaged velocities. The height is taken over the stance foot's ground, which the robot
+    can measure through its leg, not over the terrain under the pelvis, which it cannot.
     """
     return cfg.k_height * jnp.clip(height_des - height, -HEIGHT_ERROR_LIMIT, HEIGHT_ERROR_LIMIT)
 
