@@ -72,7 +72,8 @@ def test_height_fix_extends_only_for_a_sag_and_saturates():
     assert float(regulators.height_fix(jnp.float32(0.86), 0.91, reg)) == pytest.approx(0.1)
     assert float(regulators.height_fix(jnp.float32(0.96), 0.91, reg)) == pytest.approx(-0.1)
     assert float(regulators.height_fix(jnp.float32(0.5), 0.91, reg)) == pytest.approx(2.0 * regulators.HEIGHT_ERROR_LIMIT)
-    assert float(regulators.height_fix(jnp.float32(0.5), 0.91, REG)) == 0.0  # off by default
+    off = dataclasses.replace(REG, k_height=0.0)
+    assert float(regulators.height_fix(jnp.float32(0.5), 0.91, off)) == 0.0
 
 
 def test_torso_torque_opposes_tilt():
@@ -201,10 +202,10 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
 
 def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing):
     """With `k_height`, a pelvis 5 cm below the desired height over the stance foot's ground turns
-    the stance knee by k_height * 0.05 rad the way that lengthens the leg; the default, 0,
-    changes nothing."""
-    plain, data, obs, ctrl = standing
-    cfg = plain.cfg.override(**{"regulators.k_height": 2.0})
+    the stance knee by k_height * 0.05 rad the way that lengthens the leg; 0 changes nothing."""
+    shipped, data, obs, ctrl = standing
+    plain = Env(cassie, shipped.cfg.override(**{"regulators.k_height": 0.0}), cassie_pool)
+    cfg = shipped.cfg.override(**{"regulators.k_height": 2.0})
     env, r, z = Env(cassie, cfg, cassie_pool), cassie, cfg.rewards.height
 
     def stance_knee(e, height):
