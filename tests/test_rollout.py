@@ -19,8 +19,8 @@ def _schedules(**over):
     return env, keys, cmd, *rollout.schedules(env, keys, cmd)
 
 
-def test_by_default_one_command_and_no_push():
-    _, _, cmd, command, force = _schedules()
+def test_without_a_command_change_one_command_and_no_push():
+    _, _, cmd, command, force = _schedules(**{"episode.command_change": [0.0, 0.0]})
     t = jnp.arange(B)
     assert command(t) is cmd and force(t) is None
 
