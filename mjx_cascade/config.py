@@ -79,12 +79,15 @@ class RegulatorConfig:
     k_p_pitch: float  # torso pitch PD torque
     k_d_pitch: float
     blend_phase: float  # swing compensations ramp in over tau in [0, blend_phase]
-    k_i_drift: float  # PI drift terms beta_x, beta_y: rad per (m/s) per step
+    k_i_drift: float  # PI drift term beta_x: rad per (m/s) per step
     drift_limit: float  # |beta| bound, rad
     slope_estimation: bool  # swing foot parallel to the stance foot (Sec. IV-A)
     # stance knee extension per m of pelvis height below rewards.height (regulators.height_fix;
     # not in the paper): 0, the default, leaves the pelvis height to the learned stance knee
     k_height: float = 0.0
+    # beta_y's own integral gain (regulators.drift_update); 0.05, the default, is the single gain
+    # that configs saved before this setting existed used for both axes
+    k_i_drift_y: float = 0.05
 
 
 @dataclasses.dataclass(frozen=True)

@@ -115,8 +115,13 @@ def heading(yaw: Array, yaw_des: Array, tau: Array, cfg: RegulatorConfig) -> Arr
 
 
 def drift_update(beta: Array, v_step: Array, v_des: Array, cfg: RegulatorConfig) -> Array:
-    """The PI terms beta_x, beta_y: integrate each step's average velocity error, bounded."""
-    return jnp.clip(beta + cfg.k_i_drift * (v_step - v_des), -cfg.drift_limit, cfg.drift_limit)
+    """The PI terms beta_x, beta_y: integrate each step's average velocity error, bounded.
+
+    Each axis has its own gain (`k_i_drift`, `k_i_drift_y`): the lateral integral can overshoot
+    a change of vy command while the swing hip roll already tracks it, so it is tuned apart.
+    """
+    gain = jnp.array([cfg.k_i_drift, cfg.k_i_drift_y])
+    return jnp.clip(beta + gain * (v_step - v_des), -cfg.drift_limit, cfg.drift_limit)
 
 
 def stance_foot_tilt(v_bar: Array, v_des: Array, cfg: RegulatorConfig) -> Array:

@@ -61,10 +61,17 @@ def test_heading_turns_back_and_wraps():
 
 
 def test_drift_integrates_the_step_error_within_bounds():
+    both = dataclasses.replace(REG, k_i_drift=0.05, k_i_drift_y=0.05)
     beta = jnp.zeros(2)
     for _ in range(100):
-        beta = regulators.drift_update(beta, jnp.array([0.5, -0.5]), jnp.zeros(2), REG)
-    np.testing.assert_allclose(beta, [REG.drift_limit, -REG.drift_limit], atol=1e-6)
+        beta = regulators.drift_update(beta, jnp.array([0.5, -0.5]), jnp.zeros(2), both)
+    np.testing.assert_allclose(beta, [both.drift_limit, -both.drift_limit], atol=1e-6)
+
+
+def test_drift_gains_are_per_axis():
+    reg = dataclasses.replace(REG, k_i_drift=0.05, k_i_drift_y=0.0)
+    beta = regulators.drift_update(jnp.zeros(2), jnp.array([0.4, 0.3]), jnp.array([0.2, -0.1]), reg)
+    np.testing.assert_allclose(beta, [0.05 * 0.2, 0.0], atol=1e-7)
 
 
 def test_height_fix_extends_only_for_a_sag_and_saturates():
