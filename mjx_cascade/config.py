@@ -88,6 +88,10 @@ class RegulatorConfig:
     # beta_y's own integral gain (regulators.drift_update); 0.05, the default, is the single gain
     # that configs saved before this setting existed used for both axes
     k_i_drift_y: float = 0.05
+    # how fast the command the controller follows may move towards the one given
+    # (regulators.rate_limit; not in the paper): [m/s^2 for vx and vy, rad/s for the heading];
+    # 0, the default, follows every command at once
+    command_rate: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -378,6 +382,7 @@ def validate(cfg: Config) -> None:
     need(0 < r.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")
     need(r.drift_limit >= 0, "regulators.drift_limit must be >= 0")
     need(r.k_height >= 0, "regulators.k_height must be >= 0")
+    need(min(r.command_rate) >= 0, "regulators.command_rate must be >= 0 (0 = no limit)")
     rw = cfg.rewards
     need(rw.rho_v > 0 and rw.epsilon > 0 and rw.rho_d > 0, "rewards.rho_v, epsilon, rho_d must be positive")
     need(rw.e_vx > 0 and rw.e_vy > 0 and rw.e_height > 0, "rewards error bands must be positive")

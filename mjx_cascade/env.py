@@ -44,6 +44,7 @@ class ControllerState(struct.PyTreeNode):
     lifted: Array  # the swing foot has been unloaded during this step
     hold: Array  # [2] stance hip (roll, pitch) angles at the step start, held while the foot loads
     steps: Array  # walking steps completed
+    cmd: Array  # [3] the command followed: the given one through regulators.rate_limit
 
 
 class EnvState(struct.PyTreeNode):
@@ -176,6 +177,7 @@ class Env:
             lifted=jnp.zeros((), bool),
             hold=obs.q[stance, self._hips],
             steps=jnp.zeros((), jnp.int32),
+            cmd=jnp.asarray(cmd, jnp.float32),
         )
         false = jnp.zeros((), bool)
         return EnvState(data=data, ctrl=ctrl, t=jnp.zeros((), jnp.int32), done=false, terminated=false,
@@ -183,9 +185,14 @@ class Env:
 
     # ------------------------------------------------------------------ the cascade controller
     def control(self, params: Array, c: ControllerState, obs: Obs, time: Array, cmd: Array) -> tuple[Array, Array, ControllerState]:
-        """One tick of pi_m o pi_y: `(u [2, J] joint torques, step_ended, new controller state)`."""
+        """One tick of pi_m o pi_y: `(u [2, J] joint torques, step_ended, new controller state)`.
+
+        `cmd` is the command given; the controller follows it through `regulators.rate_limit`.
+        """
         r, cfg = self.robot, self.cfg
         g, reg = cfg.gait, cfg.regulators
+        cmd = regulators.rate_limit(c.cmd, cmd, self.dt, reg)
+        c = c.replace(cmd=cmd)
         cmd_v, cmd_yaw = cmd[:2], cmd[2]
 
         hips = self._hips
@@ -277,7 +284,8 @@ class Env:
             data = data.replace(xfrc_applied=data.xfrc_applied.at[r.pelvis_body, :3].set(force))
         data = mjx.step(model, data)
 
-        x = self.reward_inputs(obs, ctrl, u, cmd)
+        # scored against the command followed, which is all the controller is asked to do
+        x = self.reward_inputs(obs, ctrl, u)
         terms = rewards.terms(x, cfg.rewards)
         # a non-finite score means this step started from diverged physics: never count it
         diverged = rewards.diverged(data.qpos, data.qvel, cfg.termination) | ~jnp.all(jnp.isfinite(terms))
@@ -299,8 +307,8 @@ class Env:
             terms=state.terms + jnp.where(live & ~diverged, terms * self.dt, 0.0),
         )
 
-    def reward_inputs(self, obs: Obs, c: ControllerState, u: Array, cmd: Array) -> rewards.RewardInputs:
-        r = self.robot
+    def reward_inputs(self, obs: Obs, c: ControllerState, u: Array) -> rewards.RewardInputs:
+        r, cmd = self.robot, c.cmd
         stance = c.stance
         feet_h = features.to_heading_frame(obs.feet[0, :2] - obs.feet[1, :2], obs.rpy[2])
         return rewards.RewardInputs(

@@ -39,6 +39,26 @@ def test_impact_invariance_at_a_switch(cassie, cassie_cfg, cassie_pool):
     np.testing.assert_allclose(np.asarray(u)[mask], (-r.kd * np.asarray(obs.qd))[mask], rtol=1e-4, atol=1e-4)
 
 
+def test_the_controller_follows_and_is_scored_against_the_rate_limited_command(cassie, cassie_cfg, cassie_pool):
+    """A command jump reaches the controller through `regulators.command_rate`; the rewards and
+    the heading termination judge the command it follows, not the one given."""
+    env = Env(cassie, cassie_cfg.override(**{"regulators.command_rate": [1.0, 2.0]}), cassie_pool)
+    jump = jnp.array([0.8, -0.3, 0.9])
+
+    @jax.jit
+    def tick(key):
+        state = env.reset(env.init_params, key, jnp.zeros(3))
+        obs = env.observe(state.data)
+        u, _, c = env.control(env.init_params, state.ctrl, obs, state.data.time, jump)
+        return state, obs, c, env.reward_inputs(obs, c, u)
+
+    state, obs, c, x = tick(jax.random.PRNGKey(0))
+    np.testing.assert_allclose(state.ctrl.cmd, 0.0)
+    np.testing.assert_allclose(c.cmd, [env.dt, -env.dt, 2 * env.dt], atol=1e-7)
+    np.testing.assert_allclose(x.v_error, c.v_avg - c.cmd[:2], atol=1e-7)
+    np.testing.assert_allclose(x.rpy_error[2], obs.rpy[2] - 2 * env.dt, atol=1e-6)
+
+
 @pytest.fixture(scope="module")
 def standing_still(cassie, cassie_cfg, cassie_pool):
     """Two-second episodes of the untrained policy, commanded to step in place, without the

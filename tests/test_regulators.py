@@ -74,6 +74,23 @@ def test_drift_gains_are_per_axis():
     np.testing.assert_allclose(beta, [0.05 * 0.2, 0.0], atol=1e-7)
 
 
+def test_rate_limit_ramps_each_axis_and_wraps_the_heading():
+    reg = dataclasses.replace(REG, command_rate=(1.0, 2.0))
+    dt = 0.01
+    followed = jnp.array([0.0, 0.0, 3.1])
+    cmd = jnp.array([0.8, -0.005, -3.1])
+    first = regulators.rate_limit(followed, cmd, dt, reg)
+    # vx moves 1 m/s^2 x dt, vy reaches its close target, the heading turns on through pi
+    np.testing.assert_allclose(first, [0.01, -0.005, 3.12], atol=1e-6)
+    for _ in range(100):
+        followed = regulators.rate_limit(followed, cmd, dt, reg)
+    np.testing.assert_allclose(followed[:2], cmd[:2], atol=1e-6)
+    np.testing.assert_allclose(regulators.wrap_angle(followed[2] - cmd[2]), 0.0, atol=1e-5)
+    # a rate of 0 follows at once, bit for bit
+    off = dataclasses.replace(REG, command_rate=(0.0, 0.0))
+    np.testing.assert_array_equal(regulators.rate_limit(jnp.zeros(3), cmd, dt, off), cmd)
+
+
 def test_height_fix_extends_only_for_a_sag_and_saturates():
     reg = dataclasses.replace(REG, k_height=2.0)
     assert float(regulators.height_fix(jnp.float32(0.86), 0.91, reg)) == pytest.approx(0.1)
