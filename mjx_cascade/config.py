@@ -152,6 +152,8 @@ class RandomizationConfig:
     push_force: tuple[float, float] = (0.0, 0.0)
     push_seconds: float = 0.2
     push_after: tuple[float, float] = (1.0, 3.0)
+    # a curriculum: the first push_warmup_generations generations train without pushes
+    push_warmup_generations: int = 0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -401,6 +403,7 @@ def validate(cfg: Config) -> None:
     need(0 <= dr.push_force[0] <= dr.push_force[1], "randomization.push_force must be [low, high] with 0 <= low <= high")
     need(dr.push_seconds > 0, "randomization.push_seconds must be positive")
     need(0 <= dr.push_after[0] <= dr.push_after[1], "randomization.push_after must be [low, high] with 0 <= low <= high")
+    need(dr.push_warmup_generations >= 0, "randomization.push_warmup_generations must be >= 0")
     need(es.population > 0 and es.population % 2 == 0,
          f"es.population must be a positive even number (antithetic pairs), got {es.population}")
     need(es.sigma > 0, "es.sigma must be positive")

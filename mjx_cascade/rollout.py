@@ -48,11 +48,12 @@ def second_command(key: Array, cfg: EpisodeConfig, dt: float) -> tuple[Array, Ar
     return sample_command(k_cmd, cfg), randomization.random_step(k_at, cfg.command_change, dt)
 
 
-def schedules(env: Env, keys: Array, cmd: Array) -> tuple[Callable, Callable]:
+def schedules(env: Env, keys: Array, cmd: Array, generation: Array | int = 0) -> tuple[Callable, Callable]:
     """Functions of the episodes' step counters `t [B]`: the command `[B, 3]` (`cmd`, then a second
     one if `episode.command_change` asks) and the push force `[B, 3]` (None without pushes, which
-    leaves the compiled step as it was). Each draw has a key of its own, so enabling one leaves
-    every other draw as it was."""
+    leaves the compiled step as it was; zero while `generation`, the generations trained so far,
+    is below `randomization.push_warmup_generations`). Each draw has a key of its own, so
+    enabling one leaves every other draw as it was."""
     cfg = env.cfg
     command, force = (lambda t: cmd), (lambda t: None)
     if command_changes(cfg.episode):
@@ -63,11 +64,16 @@ def schedules(env: Env, keys: Array, cmd: Array) -> tuple[Callable, Callable]:
         k_push = jax.vmap(lambda k: jax.random.fold_in(k, PUSH_STREAM))(keys)
         pushes = jax.vmap(lambda k: randomization.push(k, cfg.randomization, env.dt))(k_push)
         force = lambda t: jax.vmap(randomization.push_force)(pushes, t)  # noqa: E731
+        warmup = cfg.randomization.push_warmup_generations
+        if warmup > 0:
+            pushed = force
+            force = lambda t: jnp.where(generation >= warmup, pushed(t), 0.0)  # noqa: E731
     return command, force
 
 
-def run_episodes(env: Env, params: Array, keys: Array) -> EpisodeResult:
-    """Training episodes of a batch of flat policy vectors `params [B, D]`, one key each.
+def run_episodes(env: Env, params: Array, keys: Array, generation: Array | int = 0) -> EpisodeResult:
+    """Training episodes of a batch of flat policy vectors `params [B, D]`, one key each, in
+    generation `generation` (counted from 0; it only matters for `push_warmup_generations`).
 
     The loop over time is written at the batch level (a `while_loop` around vmapped chunks)
     rather than as a vmapped per-episode loop: JAX's batching of a `while_loop` selects the
@@ -83,7 +89,7 @@ def run_episodes(env: Env, params: Array, keys: Array) -> EpisodeResult:
         model, model_axes = env.model, None
     cmd = jax.vmap(lambda k: sample_command(k, cfg.episode))(k_cmd)
     state = jax.vmap(env.reset, in_axes=(0, 0, 0, model_axes))(params, k_reset, cmd, model)
-    command, force = schedules(env, keys, cmd)
+    command, force = schedules(env, keys, cmd, generation)
     step = jax.vmap(lambda p, s, c, f, m: env.step(p, s, c, f, model=m), in_axes=(0, 0, 0, 0, model_axes))
 
     def chunk(s: EnvState) -> EnvState:

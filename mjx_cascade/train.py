@@ -59,7 +59,7 @@ def make_generation(env: Env) -> Callable:
         keys = jnp.concatenate([pair_keys, pair_keys])  # both members of a pair face the same episode
         members = jax.lax.with_sharding_constraint(members, sharding)
         keys = jax.lax.with_sharding_constraint(keys, sharding)
-        res = run_episodes(env, members, keys)
+        res = run_episodes(env, members, keys, state.generation)
         new = es.tell(state, noise, res.fitness, cfg.es)
         chunk = cfg.episode.steps_per_check
         iterations = jnp.ceil(jnp.max(res.steps) / chunk)

@@ -73,7 +73,7 @@ def test_every_setting_is_in_the_shipped_yaml():
 
 def test_a_config_saved_before_newer_settings_existed_loads_without_them():
     data = config.to_dict(config.robot_config("cassie"))
-    for key in ("push_force", "push_seconds", "push_after"):
+    for key in ("push_force", "push_seconds", "push_after", "push_warmup_generations"):
         del data["randomization"][key]
     del data["episode"]["command_change"]
     del data["regulators"]["k_i_drift_y"]
@@ -87,7 +87,8 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
 @pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
                                         ("randomization.push_seconds", 0), ("randomization.push_after", [3, 1]),
                                         ("episode.command_change", [3, 1]), ("episode.command_change", [-1, 1]),
-                                        ("regulators.command_rate", [-1, 1])])
+                                        ("regulators.command_rate", [-1, 1]),
+                                        ("randomization.push_warmup_generations", -1)])
 def test_bad_push_command_change_and_command_rate_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})

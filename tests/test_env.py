@@ -89,7 +89,8 @@ def test_a_training_push_topples_the_episodes_that_stood(cassie, cassie_pool, st
     """The same episodes with `randomization.push_force` set: a 600 N push from 0.5 s ends them all,
     none before the push starts."""
     calm_env, _ = standing_still
-    cfg = calm_env.cfg.override(**{"randomization.push_force": [600.0, 600.0], "randomization.push_after": [0.5, 0.5]})
+    cfg = calm_env.cfg.override(**{"randomization.push_force": [600.0, 600.0], "randomization.push_after": [0.5, 0.5],
+                                 "randomization.push_warmup_generations": 0})
     env = Env(cassie, cfg, cassie_pool, batch=4)
     params = jnp.stack([env.init_params] * 4)
     keys = jax.random.split(jax.random.PRNGKey(1), 4)

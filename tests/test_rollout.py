@@ -11,12 +11,14 @@ from mjx_cascade import config, rollout
 B = 256
 
 
-def _schedules(**over):
+def _schedules(generation=0, **over):
+    """Cassie's schedules, pushes off unless `over` sets them (its config holds them off for 250 generations)."""
+    over = {"randomization.push_force": [0.0, 0.0], "randomization.push_warmup_generations": 0, **over}
     cfg = config.robot_config("cassie").override(**over)
     env = types.SimpleNamespace(cfg=cfg, dt=cfg.physics.dt)
     keys = jax.random.split(jax.random.PRNGKey(0), B)
     cmd = jax.vmap(lambda k: rollout.sample_command(k, cfg.episode))(keys)
-    return env, keys, cmd, *rollout.schedules(env, keys, cmd)
+    return env, keys, cmd, *rollout.schedules(env, keys, cmd, generation)
 
 
 def test_without_a_command_change_one_command_and_no_push():
@@ -44,3 +46,14 @@ def test_pushes_act_only_inside_their_window():
     _, _, _, _, force = _schedules(**{"randomization.push_force": [50.0, 50.0], "randomization.push_after": [1.0, 1.0]})
     for t, expect in ((999, 0.0), (1000, 50.0), (1199, 50.0), (1200, 0.0)):
         np.testing.assert_allclose(np.linalg.norm(np.asarray(force(jnp.full(B, t))), axis=1), expect, rtol=1e-5)
+
+
+def test_pushes_start_after_their_warmup_generations_as_drawn_without_one():
+    push = {"randomization.push_force": [10.0, 80.0], "randomization.push_after": [1.0, 1.0]}
+    t = jnp.full(B, 1100)
+    *_, plain = _schedules(**push)
+    expected = np.asarray(plain(t))
+    assert np.all(np.linalg.norm(expected, axis=1) >= 10.0 - 1e-4)
+    for generation, scale in ((0, 0.0), (4, 0.0), (5, 1.0), (9, 1.0)):
+        *_, force = _schedules(jnp.int32(generation), **push, **{"randomization.push_warmup_generations": 5})
+        np.testing.assert_array_equal(np.asarray(force(t)), scale * expected)
