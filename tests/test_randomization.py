@@ -33,7 +33,8 @@ def test_masses_and_coms_scale_within_table_5_per_episode(cassie_env, cassie_cfg
 def test_pushes_draw_magnitude_direction_and_start_from_the_config(cassie_cfg):
     cfg = cassie_cfg.override(**{"randomization.push_force": [20.0, 80.0], "randomization.push_seconds": 0.2,
                                  "randomization.push_after": [1.0, 3.0]}).randomization
-    assert randomization.pushes_enabled(cfg) and not randomization.pushes_enabled(cassie_cfg.randomization)
+    off = cassie_cfg.override(**{"randomization.push_force": [0.0, 0.0]}).randomization
+    assert randomization.pushes_enabled(cfg) and not randomization.pushes_enabled(off)
     dt = 0.001
     p = jax.vmap(lambda k: randomization.push(k, cfg, dt))(jax.random.split(jax.random.PRNGKey(0), 512))
     force, start, stop = (np.asarray(x) for x in p)
