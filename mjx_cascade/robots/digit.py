@@ -107,18 +107,27 @@ DIGIT = RobotDefinition(
         ("swing", "knee"),
         ("swing", "shoulder_pitch"),
     ),
-    # Ranges of the free Bezier coefficients (left-leg convention, rad), placed about the
-    # nominal pose (hip roll 0.30, hip pitch 0.32, knee 0.37, shoulder pitch 1.1) as Cassie's
-    # are about hers: the middles step in place, swing foot a little outward and forward,
-    # swing knee bent. On Digit's left leg a larger hip roll moves the foot inward, a larger
-    # hip pitch moves it back, a larger knee angle extends the leg.
+    # Ranges of the free Bezier coefficients (left-leg convention, rad). Their middles, what
+    # an untrained network outputs, step in place under the regulators (about 3.6 steps a
+    # second, pelvis between 0.91 and 0.98 m). On Digit's left leg a larger hip roll moves
+    # the foot inward, a larger hip pitch moves it back, a larger knee angle extends the leg.
+    # About the nominal pose (hip roll 0.30, hip pitch 0.32, knee 0.37, shoulder pitch 1.1):
+    # - the stance knee's middle is the nominal angle: 0.07 more bent, the stance leg sagged
+    #   under Digit's 48 kg (the pelvis sank from 0.96 to 0.80 m in 0.8 s);
+    # - the swing hip roll's middle is 0.12 inward: at 0.05 outward the feet spread further
+    #   each step (0.9 m apart after 0.5 s);
+    # - the swing knee bends 0.65 in the first half of the step and extends past nominal in
+    #   the second, one range per coefficient: bent to the end (one range), the swing foot
+    #   stayed in the air until the time-out.
+    # The middles came from batched searches of the untrained policy stepping in place (32
+    # variants at a time, 3 to 6 s each); the ranges bound what can be learned.
     ranges=(
         (-0.3, 0.3),  # stance hip yaw
-        (-0.2, 0.8),  # stance knee: middle 0.07 more bent than nominal
-        (0.0, 0.5),  # swing hip roll: middle 0.05 outward
+        (-0.13, 0.87),  # stance knee
+        (0.17, 0.67),  # swing hip roll
         (-0.3, 0.3),  # swing hip yaw
-        (-0.3, 0.8),  # swing hip pitch: middle 0.07 forward
-        (-0.8, 0.6),  # swing knee: middle 0.47 more bent, for foot clearance
+        (-0.37, 0.73),  # swing hip pitch: middle 0.14 forward
+        ((-0.78, 0.22), (-0.78, 0.22), (0.0, 1.0), (0.4, 1.0)),  # swing knee: bend, then extend
         (0.5, 1.7),  # swing shoulder pitch: nominal +- 0.6, the arm as a pendulum
     ),
     # Knee kp 1000 (not 400): at 400 the knees sag 0.18 rad under Digit's weight in double
