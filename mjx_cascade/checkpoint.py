@@ -52,7 +52,7 @@ def is_checkpoint_dir(path: Path) -> bool:
 
 def read(path: str | Path) -> tuple[dict, np.ndarray]:
     """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`)."""
-    path = Path(path)
+    path = Path(path).absolute()  # orbax finds no array metadata under a relative path
     if (path / "checkpoints").is_dir():
         path = path / "checkpoints"
     if not is_checkpoint_dir(path):

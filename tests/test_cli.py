@@ -62,6 +62,18 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
 
 
 @pytest.mark.slow
+def test_a_checkpoint_reads_from_a_path_relative_to_the_working_directory(smoke, monkeypatch):
+    """As `eval --checkpoint runs/cassie` gives it; orbax's metadata lookup fails on relative paths."""
+    from mjx_cascade import checkpoint
+
+    meta, params = checkpoint.read(smoke[0])
+    monkeypatch.chdir(smoke[0].parent)
+    relative_meta, relative_params = checkpoint.read(smoke[0].name)
+    assert relative_meta["generation"] == meta["generation"] == 3
+    np.testing.assert_array_equal(relative_params, params)
+
+
+@pytest.mark.slow
 def test_export_ships_a_run_as_a_packaged_policy(smoke, tmp_path):
     from mjx_cascade import checkpoint, policies
 
