@@ -5,7 +5,8 @@
 
 Trains with the robot's shipped config (plus `--set` overrides) exactly as `mjx-cascade train`
 does, and every `--check-every` generations runs the ES mean through each scenario on the same
-device (`evaluate.Runner`: compiled once, at the bar's time step `--dt`), judging it with
+device (`evaluate.Runner`: all scenarios of a terrain in one vmapped call, compiled once, at
+the bar's time step `--dt`), judging it with
 `evaluate.tracking_metrics` from the recorded trajectory alone. It stops at the first check that
 passes every scenario, or at the limits, and writes
 
@@ -35,20 +36,21 @@ SCENARIOS = Path(__file__).resolve().parents[1] / "configs" / "scenarios"
 DEFAULT_SCENARIOS = ("speed_profile.json", "limit_cycle.json")
 
 
-def check(runners: dict, params: np.ndarray) -> dict:
+def check(batches: list[evaluate.Runner], params: np.ndarray) -> dict:
     """Every scenario's verdict for one policy."""
     results = {}
-    for name, run in runners.items():
-        m = evaluate.tracking_metrics(run(params))
-        results[name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
-                         "segments": [s for s in m["segments"] if "within_bounds" in s]}
+    for run in batches:
+        for s, traj in zip(run.scenarios, run(params)):
+            m = evaluate.tracking_metrics(traj)
+            results[s.name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
+                               "segments": [seg for seg in m["segments"] if "within_bounds" in seg]}
     return results
 
 
 def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: float, check_every: int,
                  max_generations: int, max_seconds: float, log=print) -> dict:
     eval_cfg = cfg.override(**{"physics.dt": dt})
-    runners = {s.name: evaluate.Runner(eval_cfg, s) for s in scenarios}  # evaluation setup, not timed
+    checks_on = evaluate.runners(eval_cfg, scenarios)  # evaluation setup, not timed
     start = time.perf_counter()
     trainer = train.setup(cfg)
     state, per_call = trainer.state, cfg.train.generations_per_call
@@ -64,7 +66,7 @@ def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: flo
         if generation % check_every and generation < max_generations:
             continue
         t_check = time.perf_counter()
-        results = check(runners, np.asarray(jax.device_get(state.mean)))
+        results = check(checks_on, np.asarray(jax.device_get(state.mean)))
         check_s += time.perf_counter() - t_check
         passed = all(r["passed"] for r in results.values())
         wall = time.perf_counter() - start - check_s

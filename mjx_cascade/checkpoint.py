@@ -8,6 +8,7 @@ killed mid-write leaves the previous checkpoint as the latest one.
 from __future__ import annotations
 
 import hashlib
+import json
 import logging
 from pathlib import Path
 from typing import Any
@@ -51,8 +52,11 @@ def is_checkpoint_dir(path: Path) -> bool:
 
 
 def read(path: str | Path) -> tuple[dict, np.ndarray]:
-    """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`)."""
+    """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`),
+    or of an exported policy `NAME.npz` with its `NAME.json` beside it (the shipped format)."""
     path = Path(path).absolute()  # orbax finds no array metadata under a relative path
+    if path.suffix == ".npz":
+        return _read_exported(path)
     if (path / "checkpoints").is_dir():
         path = path / "checkpoints"
     if not is_checkpoint_dir(path):
@@ -67,6 +71,21 @@ def read(path: str | Path) -> tuple[dict, np.ndarray]:
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise ConfigError(f"{path} is not an mjx_cascade checkpoint")
     return meta, np.asarray(state["mean"], dtype=np.float32)
+
+
+def _read_exported(path: Path) -> tuple[dict, np.ndarray]:
+    meta_path = path.with_suffix(".json")
+    if not (path.is_file() and meta_path.is_file()):
+        raise ConfigError(f"{path} needs {meta_path.name} beside it (an exported policy is a .npz and a .json)")
+    try:
+        meta = json.loads(meta_path.read_text())
+        with np.load(path) as f:
+            params = np.asarray(f["params"], dtype=np.float32)
+    except (OSError, ValueError, KeyError) as e:
+        raise ConfigError(f"{path} holds no readable policy ({type(e).__name__})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise ConfigError(f"{meta_path} is not an mjx_cascade policy")
+    return meta, params
 
 
 def _read_numpy(path: Path) -> dict:

@@ -55,6 +55,9 @@ def build_parser() -> Parser:
     src.add_argument("--robot", choices=config_lib.ROBOTS)
     train.add_argument("--out", required=True, metavar="DIR")
     train.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    train.add_argument("--init", metavar="POLICY",
+                       help="warm-start from a policy: a run's --out, or an exported NAME.npz with NAME.json "
+                            "beside it (a run that has a checkpoint resumes instead)")
     train.add_argument("--generations", type=int)
     train.add_argument("--population", type=int)
     train.add_argument("--episode-seconds", type=float)
@@ -70,7 +73,8 @@ def build_parser() -> Parser:
     ev.add_argument("--robot", required=True, choices=config_lib.ROBOTS)
     ev.add_argument("--checkpoint", metavar="DIR", help="a run's --out or checkpoints/ (default: the shipped policy)")
     ev.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
-    ev.add_argument("--scenario", required=True, metavar="FILE")
+    ev.add_argument("--scenario", required=True, nargs="+", metavar="FILE",
+                    help="one or more; several run in one vmapped call and write into --out/<name>/")
     ev.add_argument("--out", required=True, metavar="DIR")
     ev.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
     ev.add_argument("--impl", choices=("auto", "jax", "warp"))
@@ -171,6 +175,13 @@ def cmd_train(args: argparse.Namespace) -> int:
         meta, _ = checkpoint.read(out)
         actions, params = policy_shape(definition, cfg)
         checkpoint.check_compatible(meta, cfg.robot, params, actions)
+    elif args.init:
+        meta, _ = checkpoint.read(args.init)
+        actions, params = policy_shape(definition, cfg)
+        checkpoint.check_compatible(meta, cfg.robot, params, actions)
+        if meta["generation"] >= cfg.train.generations:
+            raise ConfigError(f"--init is at generation {meta['generation']}; train.generations "
+                              f"({cfg.train.generations}) leaves nothing to train")
     from mjx_cascade import physics
 
     physics.resolve_impl(cfg.physics.impl)  # an impossible --impl is refused before anything is written
@@ -178,7 +189,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     from mjx_cascade import train
 
     summary = train.train(cfg, out, model_path=str(model) if model else None,
-                          progress=None if not args.no_progress else False)
+                          progress=None if not args.no_progress else False, init=args.init)
     print(json.dumps(summary))
     return 0
 
@@ -212,19 +223,23 @@ def cmd_eval(args: argparse.Namespace) -> int:
         _headless_gl()
     from mjx_cascade import evaluate, scenario
 
-    scen = scenario.load(args.scenario)
+    scenarios = [scenario.load(f) for f in args.scenario]
     model, out = _simulation_args(args)
-    metrics = evaluate.evaluate(args.robot, scen, out, checkpoint_dir=args.checkpoint, model_path=model,
+    metrics = evaluate.evaluate(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
                                 dt=args.dt, impl=args.impl, video=not args.no_video)
     if args.json:
-        print(json.dumps(metrics, indent=2))
-    else:
-        verdict = "passed" if metrics["passed"] else "failed"
-        if metrics["fell"]:
-            verdict += f", fell at {metrics['fall_time']:.2f} s"
-        print(f"{args.robot} / {scen.name}: {verdict}; wrote {out}")
-        if metrics.get("video", "video.gif") != "video.gif":
-            print(metrics["video"])
+        print(json.dumps(metrics[0] if len(metrics) == 1 else metrics, indent=2))
+        return 0
+    for m in metrics:
+        verdict = "passed" if m["passed"] else "failed"
+        if m["fell"]:
+            verdict += f", fell at {m['fall_time']:.2f} s"
+        print(f"{args.robot} / {m['scenario']['name']}: {verdict}")
+    for note in dict.fromkeys(m["video"] for m in metrics if m.get("video", "video.gif") != "video.gif"):
+        print(note)  # why there is no video, once
+    if len(metrics) > 1:
+        print(f"passed {sum(m['passed'] for m in metrics)} of {len(metrics)}")
+    print(f"wrote {out}")
     return 0
 
 

@@ -30,13 +30,17 @@ def optimizer(cfg: ESConfig) -> optax.GradientTransformation:
     return optax.inject_hyperparams(base)(learning_rate=cfg.learning_rate)
 
 
-def init(params: Array, key: Array, cfg: ESConfig) -> ESState:
+def init(params: Array, key: Array, cfg: ESConfig, generation: int = 0) -> ESState:
+    """A fresh state at `params`. `generation > 0` warm-starts another run's policy: sigma and the
+    learning rate take their decayed values at that generation, the optimiser's moments start at
+    zero (a policy file holds the parameters only)."""
+    decayed = lambda x0, rate, floor: max(x0 * rate**generation, floor)  # noqa: E731
     return ESState(
         mean=params,
         opt_state=optimizer(cfg).init(params),
-        sigma=jnp.asarray(cfg.sigma, jnp.float32),
-        lr=jnp.asarray(cfg.learning_rate, jnp.float32),
-        generation=jnp.zeros((), jnp.int32),
+        sigma=jnp.asarray(decayed(cfg.sigma, cfg.sigma_decay, cfg.sigma_min), jnp.float32),
+        lr=jnp.asarray(decayed(cfg.learning_rate, cfg.lr_decay, cfg.lr_min), jnp.float32),
+        generation=jnp.asarray(generation, jnp.int32),
         key=key,
     )
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -48,24 +49,35 @@ def load_policy(robot: str, checkpoint_dir: str | None, dt: float | None = None,
 
 
 class Runner:
-    """`runner(params) -> trajectory` for one scenario, compiled once for any number of policies.
+    """`runner(params) -> [trajectory, ...]` for a batch of scenarios, compiled once for any
+    number of policies.
 
-    The trajectory is a dict of NumPy arrays; the policy parameters are an argument of the
-    jitted simulation, so checking many checkpoints (`benchmarks/time_to_walk.py`) compiles once.
-    `robot` is the simulated robot, its model including the scenario's terrain.
+    Every scenario of the batch runs in one vmapped simulation (they must share a terrain: it is
+    part of the model), each from the same start, so a scenario's trajectory does not depend on
+    the others in its batch. Shorter scenarios hold their last command to the batch's longest
+    duration and are cut back to their own. Each trajectory is a dict of NumPy arrays; the policy
+    parameters are an argument of the jitted simulation, so checking many checkpoints
+    (`benchmarks/time_to_walk.py`) compiles once. `robot` is the simulated robot, its model
+    including the scenarios' terrain.
     """
 
-    def __init__(self, cfg: Config, scenario: Scenario, model_path: str | None = None):
+    def __init__(self, cfg: Config, scenarios: Sequence[Scenario], model_path: str | None = None):
+        scenarios = list(scenarios)
+        if not scenarios:
+            raise ConfigError("no scenario to run")
+        if any(s.terrain != scenarios[0].terrain for s in scenarios):
+            raise ConfigError("the scenarios of one batch must share a terrain")
         cfg = cfg.override(**{"randomization.enabled": False})
-        self.env = env = make_env(cfg, batch=1, model_path=model_path, terrain=scenario.terrain)
+        self.env = env = make_env(cfg, batch=1, model_path=model_path, terrain=scenarios[0].terrain)
         self.robot = env.robot
-        self.every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
-        records = int(np.ceil(scenario.duration / (self.every * env.dt)))
-        self.times = (np.arange(records * self.every) + 1) * env.dt  # the time at the end of each physics step
-        self.cmd = scenario.command_schedule(self.times - env.dt).reshape(records, self.every, 3)
-        self.force = scenario.force_schedule(self.times - env.dt).reshape(records, self.every, 3)
+        self.scenarios = scenarios
+        self.every = every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
+        self.records = [int(np.ceil(s.duration / (every * env.dt))) for s in scenarios]
+        records = max(self.records)
+        self.times = (np.arange(records * every) + 1) * env.dt  # the time at the end of each physics step
+        self.cmd = np.stack([s.command_schedule(self.times - env.dt) for s in scenarios]).reshape(-1, records, every, 3)
+        self.force = np.stack([s.force_schedule(self.times - env.dt) for s in scenarios]).reshape(-1, records, every, 3)
 
-        @jax.jit
         def simulate(params, cmd, force):
             state = env.reset(params, jax.random.PRNGKey(0), cmd[0, 0])
 
@@ -79,26 +91,27 @@ class Runner:
 
             return jax.lax.scan(record, state, (cmd, force))[1]
 
-        self._simulate = simulate
+        self._simulate = jax.jit(jax.vmap(simulate, in_axes=(None, 0, 0)))
         self._inputs = jnp.asarray(self.cmd, jnp.float32), jnp.asarray(self.force, jnp.float32)
 
-    def __call__(self, params: np.ndarray) -> dict:
+    def __call__(self, params: np.ndarray) -> list[dict]:
         env, robot = self.env, self.robot
         if params.shape[0] != env.init_params.shape[0]:
             raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
                               f"{env.init_params.shape[0]}")
         qpos, qvel, ground, stance = jax.device_get(self._simulate(jnp.asarray(params), *self._inputs))
-        return {
-            "t": self.times[self.every - 1::self.every],  # exact step counts x dt (MJX's float32 clock drifts)
-            "qpos": np.asarray(qpos),
-            "qvel": np.asarray(qvel),
-            "cmd": self.cmd[:, -1],
-            "force": self.force[:, -1],
-            "ground": np.asarray(ground),
-            "stance": np.asarray(stance),
+        t = self.times[self.every - 1::self.every]  # exact step counts x dt (MJX's float32 clock drifts)
+        return [{
+            "t": t[:n],
+            "qpos": np.asarray(qpos[i, :n]),
+            "qvel": np.asarray(qvel[i, :n]),
+            "cmd": self.cmd[i, :n, -1],
+            "force": self.force[i, :n, -1],
+            "ground": np.asarray(ground[i, :n]),
+            "stance": np.asarray(stance[i, :n]),
             "dt": np.float64(env.dt),
             **joint_layout(robot),
-        }
+        } for i, n in enumerate(self.records)]
 
 
 def joint_layout(robot: Robot) -> dict:
@@ -110,9 +123,17 @@ def joint_layout(robot: Robot) -> dict:
     }
 
 
+def runners(cfg: Config, scenarios: Sequence[Scenario], model_path: str | None = None) -> list[Runner]:
+    """One `Runner` per terrain among `scenarios`, each batching every scenario on that terrain."""
+    batches: dict[str, list[Scenario]] = {}
+    for s in scenarios:
+        batches.setdefault(json.dumps(s.terrain, sort_keys=True), []).append(s)
+    return [Runner(cfg, batch, model_path) for batch in batches.values()]
+
+
 def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
     """Simulate `scenario` once; returns the trajectory as a dict of NumPy arrays."""
-    return Runner(cfg, scenario, model_path)(np.asarray(params))
+    return Runner(cfg, [scenario], model_path)(np.asarray(params))[0]
 
 
 def fallen(qpos: np.ndarray, ground: np.ndarray) -> np.ndarray:
@@ -156,28 +177,50 @@ def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, 
     }
 
 
-def evaluate(robot: str, scenario: Scenario, out: str | Path, checkpoint_dir: str | None = None,
+def evaluate(robot: str, scenarios: Sequence[Scenario], out: str | Path, checkpoint_dir: str | None = None,
              model_path: str | None = None, dt: float | None = None, impl: str | None = None,
-             video: bool = True) -> dict:
-    """Run `scenario` and write `trajectory.npz`, `metrics.json`, PNG plots and, where MuJoCo can
-    render, `video.gif` into `out` (`metrics["video"]` names the file or says why there is none)."""
+             video: bool = True) -> list[dict]:
+    """Run `scenarios` and write, for each, `trajectory.npz`, `metrics.json`, PNG plots and, where
+    MuJoCo can render, `video.gif` (`metrics["video"]` names the file or says why there is none).
+
+    One scenario writes into `out`; several write into `out/<name>/`, plus `out/summary.json`
+    (each scenario's verdict). Scenarios that share a terrain run in one vmapped call.
+    """
+    scenarios = list(scenarios)
+    names = [s.name for s in scenarios]
+    if len(set(names)) != len(names):
+        raise ConfigError("scenario names must differ (each writes into out/<name>/)")
     cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl)
-    runner = Runner(cfg, scenario, model_path)
-    traj = runner(params)
+    out = Path(out)
+    policy = {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params)}
+    results = {}
+    for runner in runners(cfg, scenarios, model_path):
+        for scenario, traj in zip(runner.scenarios, runner(params)):
+            where = out if len(scenarios) == 1 else out / scenario.name
+            results[scenario.name] = _write(robot, scenario, traj, policy, where, runner.robot if video else None)
+    metrics = [results[n] for n in names]
+    if len(scenarios) > 1:
+        summary = [{"scenario": m["scenario"]["name"], "passed": m["passed"], "fell": m["fell"],
+                    "fall_time": m["fall_time"]} for m in metrics]
+        (out / "summary.json").write_text(json.dumps({"policy": policy, "scenarios": summary}, indent=2) + "\n")
+    return metrics
+
+
+def _write(robot: str, scenario: Scenario, traj: dict, policy: dict, out: Path, render: Robot | None) -> dict:
+    """One scenario's files; `render` is the simulated robot when a video is wanted."""
     metrics = {
         "robot": robot,
         "scenario": scenario.to_dict(),
         "dt": float(traj["dt"]),
-        "policy": {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params)},
+        "policy": policy,
         **tracking_metrics(traj),
     }
-    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out / "trajectory.npz", **traj)
     plots.tracking(traj, out / "tracking.png", title=f"{robot}: {scenario.name}")
     plots.limit_cycles(traj, out / "limit_cycles.png", title=f"{robot}: {scenario.name}")
-    if video:
-        note = video_lib.render(traj, runner.robot.model, out / "video.gif", runner.robot.pelvis_body)
+    if render is not None:
+        note = video_lib.render(traj, render.model, out / "video.gif", render.pelvis_body)
         metrics["video"] = note or "video.gif"
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics

@@ -36,6 +36,7 @@ class Trainer:
     run: Callable  # (ESState, n_active) -> (ESState, metrics [L])
     state: es.ESState
     devices: int
+    init: dict | None = None  # the warm start's policy: `params_sha256`, `generation`, `source`
 
     @property
     def num_params(self) -> int:
@@ -97,13 +98,25 @@ def make_run(env: Env, per_call: int) -> Callable:
     return jax.jit(run)
 
 
-def setup(cfg: Config, model_path: str | None = None) -> Trainer:
+def setup(cfg: Config, model_path: str | None = None, init: str | Path | None = None) -> Trainer:
+    """The trainer at generation 0, or warm-started from the policy at `init` (a checkpoint
+    directory or an exported `.npz`), counting on from that policy's generation."""
     sharding, devices = population_sharding()
     if cfg.es.population % devices:
         raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
     env = make_env(cfg, batch=cfg.es.population, model_path=model_path)
-    state = replicate(es.init(env.init_params, jax.random.PRNGKey(cfg.seed), cfg.es))
-    return Trainer(cfg, env, make_run(env, cfg.train.generations_per_call), state, devices)
+    key = jax.random.PRNGKey(cfg.seed)
+    if init is None:
+        state, record = es.init(env.init_params, key, cfg.es), None
+    else:
+        meta, params = checkpoint.read(init)
+        checkpoint.check_compatible(meta, cfg.robot, int(env.init_params.shape[0]), env.action_dim)
+        generation = int(meta["generation"])
+        # its own noise stream: the generation-0 key would replay the first run's perturbations
+        state = es.init(jnp.asarray(params), jax.random.fold_in(key, generation), cfg.es, generation)
+        record = {"params_sha256": checkpoint.params_sha256(params), "generation": generation,
+                  "source": str(init)}
+    return Trainer(cfg, env, make_run(env, cfg.train.generations_per_call), replicate(state), devices, record)
 
 
 def replicate(state: es.ESState) -> es.ESState:
@@ -131,6 +144,7 @@ def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock
         "reproducibility": "bitwise on the same devices and backend; on another device count or kind "
                            "within floating-point tolerance",
         "config": to_dict(trainer.cfg),
+        **({"init": trainer.init} if trainer.init else {}),
     }
 
 
@@ -150,22 +164,29 @@ def _truncate_metrics(path: Path, generation: int) -> None:
 
 
 def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
-          log: Callable[[str], None] | None = None) -> dict:
+          log: Callable[[str], None] | None = None, init: str | Path | None = None) -> dict:
     """Train (or resume) into `out`: `out/checkpoints/`, `out/metrics.jsonl` and `out/learning_curve.png`.
 
-    Everything that can refuse the run (config, model, devices) is checked before `out` is created.
+    `init` warm-starts a new run from another run's policy (`setup`); a run that has a checkpoint
+    resumes from it instead, keeping the warm start it began with. Physics steps and wall-clock
+    count this run's only. Everything that can refuse the run (config, model, devices, `init`) is
+    checked before `out` is created.
     """
     out = Path(out)
     log = log or (lambda msg: print(msg, file=sys.stderr))
-    trainer = setup(cfg, model_path)
+    resuming = checkpoint.is_checkpoint_dir(out / "checkpoints")
+    trainer = setup(cfg, model_path, None if resuming else init)
     mngr = checkpoint.manager(out / "checkpoints")
     state, physics_steps, wall_clock = trainer.state, 0.0, 0.0
-    if mngr.latest_step() is not None:
+    if resuming:
         state, meta = checkpoint.restore(mngr, state)
         checkpoint.check_compatible(meta, cfg.robot, trainer.num_params, trainer.env.action_dim)
         physics_steps, wall_clock = float(meta["physics_steps"]), float(meta["wall_clock_s"])
+        trainer.init = meta.get("init")
         log(f"resuming {out} at generation {int(state.generation)}")
         state = replicate(state)
+    elif trainer.init:
+        log(f"warm start from {init} (generation {trainer.init['generation']})")
     generation = int(state.generation)
     metrics_path = out / METRICS
     _truncate_metrics(metrics_path, generation)

@@ -44,10 +44,10 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
 def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     """One compiled simulation serves every policy (the time-to-walk checks rely on it)."""
     cfg = cassie_cfg.override(**SMOKE)  # the time-to-walk test's checks: one compile for both
-    run = evaluate.Runner(cfg, scenario.parse(STAND))
+    run = evaluate.Runner(cfg, [scenario.parse(STAND)])
     from mjx_cascade.env import make_env
 
     params = make_env(cfg).init_params
     other = np.asarray(params) + np.random.default_rng(0).normal(0.0, 0.5, params.shape).astype(np.float32)
-    a, b = run(np.asarray(params)), run(other)
+    (a,), (b,) = run(np.asarray(params)), run(other)
     assert a["qpos"].shape == b["qpos"].shape and not np.allclose(a["qpos"], b["qpos"])

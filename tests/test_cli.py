@@ -87,6 +87,32 @@ def test_export_ships_a_run_as_a_packaged_policy(smoke, tmp_path):
 
 
 @pytest.mark.slow
+def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_generation(smoke, tmp_path):
+    from mjx_cascade import checkpoint, policies
+
+    exported = policies.export(smoke[0], "cassie", tmp_path / "policies") / "cassie.npz"
+    out = tmp_path / "warm"
+    res = cli("train", "--robot", "cassie", "--out", out, "--init", exported, "--generations", 4, *SMOKE)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "warm start" in res.stderr
+    lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [r["generation"] for r in lines] == [4]
+    assert lines[0]["physics_steps_total"] == lines[0]["physics_steps"]  # this run's steps only
+    meta, params = checkpoint.read(out)
+    assert meta["init"]["params_sha256"] == checkpoint.params_sha256(np.load(exported)["params"])
+    assert meta["init"]["generation"] == 3
+    start = checkpoint.read(exported)[1]
+    assert 0 < np.max(np.abs(params - start)) < 0.1  # one step from the exported policy, not from scratch
+    # a rerun resumes its own checkpoint and keeps the record of where it started
+    res = cli("train", "--robot", "cassie", "--out", out, "--init", exported, "--generations", 5, *SMOKE)
+    assert res.returncode == 0 and "resuming" in res.stderr, res.stderr[-3000:]
+    assert checkpoint.read(out)[0]["init"] == meta["init"]
+    # nothing left to train is refused before anything is written
+    res = cli("train", "--robot", "cassie", "--out", tmp_path / "none", "--init", exported, "--generations", 3, *SMOKE)
+    assert res.returncode == 2 and "nothing to train" in res.stderr and not (tmp_path / "none").exists()
+
+
+@pytest.mark.slow
 def test_eval_writes_trajectory_metrics_and_plots(smoke, tmp_path):
     out = tmp_path / "eval"
     res = cli("eval", "--robot", "cassie", "--checkpoint", smoke[0], "--scenario", DATA / "short.json",
@@ -104,6 +130,31 @@ def test_eval_writes_trajectory_metrics_and_plots(smoke, tmp_path):
     assert json.loads(res.stdout)["policy"]["generation"] == 3
     for png in ("tracking.png", "limit_cycles.png"):
         assert (out / png).stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_eval_runs_several_scenarios_in_one_batch_as_it_runs_each_alone(smoke, tmp_path):
+    """Each scenario of a batch starts as it would alone, and a shorter one is cut to its own length."""
+    other = json.loads((DATA / "short.json").read_text())
+    other.update(name="other", duration=0.2, commands=[{"t": 0.0, "vx": -0.1, "vy": 0.05, "yaw": 0.2}])
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    res = cli("eval", "--robot", "cassie", "--checkpoint", smoke[0], "--scenario", DATA / "short.json",
+              tmp_path / "other.json", "--out", tmp_path / "both", "--dt", 0.0005, "--json", "--no-video")
+    assert res.returncode == 0, res.stderr[-3000:]
+    listed = json.loads(res.stdout)
+    names = [m["scenario"]["name"] for m in listed]
+    assert len(names) == 2 and names[1] == "other"
+    summary = json.loads((tmp_path / "both" / "summary.json").read_text())
+    assert [s["scenario"] for s in summary["scenarios"]] == names
+    for name, scen in zip(names, (DATA / "short.json", tmp_path / "other.json")):
+        alone = cli("eval", "--robot", "cassie", "--checkpoint", smoke[0], "--scenario", scen,
+                    "--out", tmp_path / f"alone_{name}", "--dt", 0.0005, "--no-video")
+        assert alone.returncode == 0, alone.stderr[-3000:]
+        a, b = np.load(tmp_path / "both" / name / "trajectory.npz"), np.load(tmp_path / f"alone_{name}" / "trajectory.npz")
+        np.testing.assert_array_equal(a["t"], b["t"])
+        np.testing.assert_array_equal(a["cmd"], b["cmd"])
+        np.testing.assert_allclose(a["qpos"], b["qpos"], atol=1e-4)
+    assert np.load(tmp_path / "both" / "other" / "trajectory.npz")["t"][-1] == pytest.approx(0.2, abs=0.011)
 
 
 def _bad_scenario(tmp_path, text):
@@ -152,6 +203,10 @@ def bad_inputs(tmp_path):
         (ev(scen(GOOD)), "not a checkpoint"),
         (["eval", "--robot", "cassie", "--checkpoint", ckpt_free, "--scenario", scen(GOOD), "--dt", "0", "--out"],
          "--dt"),
+        (["eval", "--robot", "cassie", "--scenario", scen(_with(name="same")), scen(_with(name="same")), "--out"],
+         "names must differ"),
+        (train[:3] + ["--init", tmp_path / "missing.npz", "--out"], "missing.json beside it"),
+        (train[:3] + ["--init", ckpt_free, "--out"], "not a checkpoint"),
         (["info", "--checkpoint", ckpt_free], "not a checkpoint"),
         (["robustness", "--robot", "cassie", "--axes", "push", "wind", "--out"], "unknown sweep axis 'wind'"),
         (["robustness", "--robot", "cassie", "--dt", "-1", "--out"], "--dt"),

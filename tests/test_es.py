@@ -70,3 +70,15 @@ def test_sigma_and_learning_rate_decay_to_their_floors():
         assert float(state.sigma) == pytest.approx(expect_sigma)
         assert float(state.lr) == pytest.approx(expect_lr)
     assert int(state.generation) == 4
+
+
+def test_a_warm_start_takes_the_decayed_sigma_and_learning_rate_of_its_generation():
+    cfg = es_cfg(sigma=0.1, sigma_decay=0.5, sigma_min=0.01, learning_rate=0.1, lr_decay=0.5, lr_min=0.02)
+    stepped = es.init(jnp.zeros(3), jax.random.PRNGKey(0), cfg)
+    for _ in range(3):
+        stepped, noise, _ = es.ask(stepped, cfg)
+        stepped = es.tell(stepped, noise, jnp.arange(cfg.population, dtype=jnp.float32), cfg)
+    warm = es.init(jnp.ones(3), jax.random.PRNGKey(1), cfg, generation=3)
+    assert int(warm.generation) == 3
+    assert float(warm.sigma) == pytest.approx(float(stepped.sigma)) and float(warm.lr) == pytest.approx(float(stepped.lr))
+    np.testing.assert_array_equal(warm.mean, np.ones(3))

@@ -18,8 +18,8 @@ def test_shipped_policy_walks_and_tracks(robot, num_params, model, tmp_path):
     of settling in each."""
     meta, params = policies.load(robot)
     assert params.shape == (meta["policy_params"],) == (num_params,)
-    metrics = evaluate.evaluate(robot, scenario.load(DATA / "walk_short.json"), tmp_path,
-                                model_path=model and str(model), dt=0.0005, video=False)
+    (metrics,) = evaluate.evaluate(robot, [scenario.load(DATA / "walk_short.json")], tmp_path,
+                                   model_path=model and str(model), dt=0.0005, video=False)
     traj = np.load(tmp_path / "trajectory.npz")
     again = evaluate.tracking_metrics(dict(traj))  # judged from trajectory.npz alone
     assert again["segments"] == json.loads((tmp_path / "metrics.json").read_text())["segments"] == metrics["segments"]
