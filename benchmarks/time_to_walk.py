@@ -32,8 +32,10 @@ import numpy as np
 
 from mjx_cascade import _xla, config, evaluate, scenario, train
 
-SCENARIOS = Path(__file__).resolve().parents[1] / "configs" / "scenarios"
-DEFAULT_SCENARIOS = ("speed_profile.json", "limit_cycle.json")
+ROOT = Path(__file__).resolve().parents[1]
+# the walking bar's kind of profile: two hand-made and ten random 20-s ones, all flat: one batch
+DEFAULT_SCENARIOS = ("configs/scenarios/speed_profile.json", "configs/scenarios/limit_cycle.json",
+                     *(f"benchmarks/scenarios/rand{i}.json" for i in range(401, 411)))
 
 
 def check(batches: list[evaluate.Runner], params: np.ndarray) -> dict:
@@ -102,7 +104,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-generations", type=int, default=2000)
     ap.add_argument("--max-minutes", type=float, default=30.0, help="training time limit, checks excluded")
     ap.add_argument("--scenario", action="append", default=None, metavar="FILE",
-                    help=f"repeatable; default: {', '.join(DEFAULT_SCENARIOS)} from configs/scenarios")
+                    help="repeatable; default: configs/scenarios/speed_profile.json, limit_cycle.json and "
+                         "benchmarks/scenarios/rand401.json to rand410.json")
     ap.add_argument("--dt", type=float, default=0.0005, help="physics time step of the checks (the bar's)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = ap.parse_args(argv)
@@ -113,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         cfg = config.robot_config(args.robot).override(**config.parse_assignments(args.set))
     except config.ConfigError as e:
         raise SystemExit(f"time_to_walk: {e}") from None
-    files = args.scenario or [str(SCENARIOS / f) for f in DEFAULT_SCENARIOS]
+    files = args.scenario or [str(ROOT / f) for f in DEFAULT_SCENARIOS]
     result = time_to_walk(cfg, [scenario.load(f) for f in files], args.dt, args.check_every,
                           args.max_generations, 60.0 * args.max_minutes, log=lambda m: print(m, file=sys.stderr))
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)

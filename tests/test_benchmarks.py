@@ -51,3 +51,10 @@ def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     other = np.asarray(params) + np.random.default_rng(0).normal(0.0, 0.5, params.shape).astype(np.float32)
     (a,), (b,) = run(np.asarray(params)), run(other)
     assert a["qpos"].shape == b["qpos"].shape and not np.allclose(a["qpos"], b["qpos"])
+
+
+def test_time_to_walk_checks_twelve_flat_profiles_by_default():
+    ttw = _script("time_to_walk")
+    scenarios = [scenario.load(ROOT / f) for f in ttw.DEFAULT_SCENARIOS]
+    assert len({s.name for s in scenarios}) == 12
+    assert all(s.terrain == {"type": "flat"} and s.duration >= 12.0 for s in scenarios)  # one batch
