@@ -175,13 +175,6 @@ def cmd_train(args: argparse.Namespace) -> int:
         meta, _ = checkpoint.read(out)
         actions, params = policy_shape(definition, cfg)
         checkpoint.check_compatible(meta, cfg.robot, params, actions)
-    elif args.init:
-        meta, _ = checkpoint.read(args.init)
-        actions, params = policy_shape(definition, cfg)
-        checkpoint.check_compatible(meta, cfg.robot, params, actions)
-        if meta["generation"] >= cfg.train.generations:
-            raise ConfigError(f"--init is at generation {meta['generation']}; train.generations "
-                              f"({cfg.train.generations}) leaves nothing to train")
     from mjx_cascade import physics
 
     physics.resolve_impl(cfg.physics.impl)  # an impossible --impl is refused before anything is written

@@ -104,14 +104,18 @@ def setup(cfg: Config, model_path: str | None = None, init: str | Path | None = 
     sharding, devices = population_sharding()
     if cfg.es.population % devices:
         raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
+    if init is not None:  # read before the (slow) environment is built, so a bad `init` fails at once
+        meta, params = checkpoint.read(init)
+        generation = int(meta["generation"])
+        if generation >= cfg.train.generations:
+            raise ConfigError(f"--init is at generation {generation}; train.generations "
+                              f"({cfg.train.generations}) leaves nothing to train")
     env = make_env(cfg, batch=cfg.es.population, model_path=model_path)
     key = jax.random.PRNGKey(cfg.seed)
     if init is None:
         state, record = es.init(env.init_params, key, cfg.es), None
     else:
-        meta, params = checkpoint.read(init)
         checkpoint.check_compatible(meta, cfg.robot, int(env.init_params.shape[0]), env.action_dim)
-        generation = int(meta["generation"])
         # its own noise stream: the generation-0 key would replay the first run's perturbations
         state = es.init(jnp.asarray(params), jax.random.fold_in(key, generation), cfg.es, generation)
         record = {"params_sha256": checkpoint.params_sha256(params), "generation": generation,
