@@ -126,6 +126,7 @@ class RewardConfig:
     feet_max: float
     termination_penalty: float  # per second of the episode lost to early termination
     weights: RewardWeights
+    velocity_steps: int = 1  # walking steps whose average velocity r_vx, r_vy judge: 1 (the last) or 2 (a stride)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -389,6 +390,7 @@ def validate(cfg: Config) -> None:
     need(rw.rho_v > 0 and rw.epsilon > 0 and rw.rho_d > 0, "rewards.rho_v, epsilon, rho_d must be positive")
     need(rw.e_vx > 0 and rw.e_vy > 0 and rw.e_height > 0, "rewards error bands must be positive")
     need(rw.velocity_cap >= 1, "rewards.velocity_cap must be >= 1")
+    need(rw.velocity_steps in (1, 2), "rewards.velocity_steps must be 1 or 2")
     need(rw.height > 0 and rw.com_radius > 0, "rewards.height and com_radius must be positive")
     need(0 <= rw.feet_min < rw.feet_max, "rewards needs 0 <= feet_min < feet_max")
     need(rw.termination_penalty >= 0, "rewards.termination_penalty must be >= 0")

@@ -39,6 +39,7 @@ class ControllerState(struct.PyTreeNode):
     v_sum: Array  # [2] sum of heading-frame pelvis velocities over the current step
     v_count: Array  # physics steps in the current step
     v_avg: Array  # [2] average velocity over the last completed step (the features; v^ls of eq. 25)
+    v_prev: Array  # [2] the same over the step before it
     beta: Array  # [2] PI drift terms (beta_x, beta_y)
     ground: Array  # [2] terrain (pitch, roll) estimated from the stance foot
     lifted: Array  # the swing foot has been unloaded during this step
@@ -172,6 +173,7 @@ class Env:
             v_sum=zeros2,
             v_count=jnp.zeros(()),
             v_avg=zeros2,
+            v_prev=zeros2,
             beta=zeros2,
             ground=zeros2,
             lifted=jnp.zeros((), bool),
@@ -215,6 +217,7 @@ class Env:
             v_sum=jnp.where(ended, 0.0, v_sum),
             v_count=jnp.where(ended, 0.0, v_count),
             v_avg=v_avg,
+            v_prev=jnp.where(ended, c.v_avg, c.v_prev),
             beta=jnp.where(ended, regulators.drift_update(c.beta, v_step, cmd_v, reg), c.beta),
             lifted=lifted & ~ended,
             hold=jnp.where(ended, obs.q[stance, hips], c.hold),
@@ -311,8 +314,10 @@ class Env:
         r, cmd = self.robot, c.cmd
         stance = c.stance
         feet_h = features.to_heading_frame(obs.feet[0, :2] - obs.feet[1, :2], obs.rpy[2])
+        # a stride's average cancels the sideways sway, which alternates sign from step to step
+        v = c.v_avg if self.cfg.rewards.velocity_steps == 1 else 0.5 * (c.v_avg + c.v_prev)
         return rewards.RewardInputs(
-            v_error=c.v_avg - cmd[:2],
+            v_error=v - cmd[:2],
             height=obs.pos[2] - obs.ground,
             u_normalized=(u / r.torque_limit).ravel(),
             com_distance=jnp.linalg.norm(obs.com[:2] - obs.feet[:, :2].mean(axis=0)),

@@ -78,17 +78,20 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
     del data["episode"]["command_change"]
     del data["regulators"]["k_i_drift_y"]
     del data["regulators"]["command_rate"]
+    del data["rewards"]["velocity_steps"]
     cfg = config.from_dict(data)
     assert cfg.regulators.command_rate == (0.0, 0.0)  # then commands were followed at once
     assert cfg.randomization.push_force == (0.0, 0.0) and cfg.episode.command_change == (0.0, 0.0)
     assert cfg.regulators.k_i_drift_y == 0.05  # then one gain, 0.05, served both drift terms
+    assert cfg.rewards.velocity_steps == 1  # then the last step's average was scored
 
 
 @pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
                                         ("randomization.push_seconds", 0), ("randomization.push_after", [3, 1]),
                                         ("episode.command_change", [3, 1]), ("episode.command_change", [-1, 1]),
                                         ("regulators.command_rate", [-1, 1]),
-                                        ("randomization.push_warmup_generations", -1)])
+                                        ("randomization.push_warmup_generations", -1),
+                                        ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0)])
 def test_bad_push_command_change_and_command_rate_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})

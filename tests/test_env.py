@@ -59,6 +59,29 @@ def test_the_controller_follows_and_is_scored_against_the_rate_limited_command(c
     np.testing.assert_allclose(x.rpy_error[2], obs.rpy[2] - 2 * env.dt, atol=1e-6)
 
 
+def test_a_stride_average_scores_the_last_two_steps(cassie, cassie_cfg, cassie_pool):
+    """With `rewards.velocity_steps: 2` the velocity rewards judge the mean of the last two steps'
+    averages; at a touchdown the step before becomes `v_prev`, and the features keep the last step."""
+    env = Env(cassie, cassie_cfg.override(**{"rewards.velocity_steps": 2, "regulators.command_rate": [0.0, 0.0]}),
+              cassie_pool)
+    cmd = jnp.array([0.3, -0.1, 0.0])
+
+    @jax.jit
+    def touchdown(key):
+        state = env.reset(env.init_params, key, cmd)
+        obs = env.observe(state.data)._replace(foot_force=jnp.array([200.0, 200.0]))
+        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3), lifted=jnp.bool_(True),
+                                  v_avg=jnp.array([0.5, 0.2]), v_prev=jnp.array([-1.0, -1.0]))
+        u, ended, c = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), cmd)
+        return ended, obs, c, env.reward_inputs(obs, c, u)
+
+    ended, obs, c, x = touchdown(jax.random.PRNGKey(0))
+    assert bool(ended)
+    np.testing.assert_allclose(c.v_prev, [0.5, 0.2], atol=1e-7)
+    np.testing.assert_allclose(x.v_error, 0.5 * (c.v_avg + c.v_prev) - cmd[:2], atol=1e-6)
+    assert not np.allclose(c.v_avg, c.v_prev)  # the new step's own average, not a copy
+
+
 @pytest.fixture(scope="module")
 def standing_still(cassie, cassie_cfg, cassie_pool):
     """Two-second episodes of the untrained policy, commanded to step in place, without the
