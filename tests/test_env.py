@@ -15,8 +15,9 @@ def test_impact_invariance_at_a_switch(cassie, cassie_cfg, cassie_pool):
     """When a step ends, the new trajectories start at the joints' positions with zero velocity,
     so the learned joints' PD torque is pure damping at the switch. The height regulation (not in
     the paper) is not phase-blended: it moves the stance knee's reference from the switch on, so
-    it is off here."""
-    env = Env(cassie, cassie_cfg.override(**{"regulators.k_height": 0.0}), cassie_pool)
+    it is off here. With `rewards.velocity_steps: 2` the same touchdown hands the last step's
+    average to `v_prev`, and the velocity rewards judge the mean of the two."""
+    env = Env(cassie, cassie_cfg.override(**{"regulators.k_height": 0.0, "rewards.velocity_steps": 2}), cassie_pool)
     r = env.robot
     qd = jnp.asarray(np.random.default_rng(0).normal(size=r.qpos_adr.shape), jnp.float32)
 
@@ -25,11 +26,15 @@ def test_impact_invariance_at_a_switch(cassie, cassie_cfg, cassie_pool):
         state = env.reset(env.init_params, key, jnp.zeros(3))
         obs = env.observe(state.data)._replace(qd=qd, foot_force=jnp.array([200.0, 200.0]))
         # past min_phase, the swing foot lifted earlier and loaded now: a touchdown
-        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3), lifted=jnp.bool_(True))
-        return state, obs, env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3), lifted=jnp.bool_(True),
+                                  v_avg=jnp.array([0.5, 0.2]), v_prev=jnp.array([-1.0, -1.0]))
+        out = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+        return state, obs, out, env.reward_inputs(obs, out[2], out[0])
 
-    state, obs, (u, ended, c) = switch(jax.random.PRNGKey(0))
+    state, obs, (u, ended, c), x = switch(jax.random.PRNGKey(0))
     assert bool(ended) and int(c.stance) == 1 - int(state.ctrl.stance)
+    np.testing.assert_allclose(c.v_prev, [0.5, 0.2], atol=1e-7)  # the step before the new one's
+    np.testing.assert_allclose(x.v_error, 0.5 * (c.v_avg + c.v_prev), atol=1e-6)  # command zero
     q_role = gait.absolute_to_role(obs.q, c.stance, r.mirror)
     np.testing.assert_allclose(c.alpha[:, 0], q_role[r.learned_role, r.learned_joint], atol=1e-6)
     np.testing.assert_allclose(bezier.value(c.alpha, 0.0), c.alpha[:, 0], atol=1e-6)
@@ -57,29 +62,6 @@ def test_the_controller_follows_and_is_scored_against_the_rate_limited_command(c
     np.testing.assert_allclose(c.cmd, [env.dt, -env.dt, 2 * env.dt], atol=1e-7)
     np.testing.assert_allclose(x.v_error, c.v_avg - c.cmd[:2], atol=1e-7)
     np.testing.assert_allclose(x.rpy_error[2], obs.rpy[2] - 2 * env.dt, atol=1e-6)
-
-
-def test_a_stride_average_scores_the_last_two_steps(cassie, cassie_cfg, cassie_pool):
-    """With `rewards.velocity_steps: 2` the velocity rewards judge the mean of the last two steps'
-    averages; at a touchdown the step before becomes `v_prev`, and the features keep the last step."""
-    env = Env(cassie, cassie_cfg.override(**{"rewards.velocity_steps": 2, "regulators.command_rate": [0.0, 0.0]}),
-              cassie_pool)
-    cmd = jnp.array([0.3, -0.1, 0.0])
-
-    @jax.jit
-    def touchdown(key):
-        state = env.reset(env.init_params, key, cmd)
-        obs = env.observe(state.data)._replace(foot_force=jnp.array([200.0, 200.0]))
-        ctrl = state.ctrl.replace(step_start=jnp.float32(-0.3), lifted=jnp.bool_(True),
-                                  v_avg=jnp.array([0.5, 0.2]), v_prev=jnp.array([-1.0, -1.0]))
-        u, ended, c = env.control(env.init_params, ctrl, obs, jnp.float32(0.0), cmd)
-        return ended, obs, c, env.reward_inputs(obs, c, u)
-
-    ended, obs, c, x = touchdown(jax.random.PRNGKey(0))
-    assert bool(ended)
-    np.testing.assert_allclose(c.v_prev, [0.5, 0.2], atol=1e-7)
-    np.testing.assert_allclose(x.v_error, 0.5 * (c.v_avg + c.v_prev) - cmd[:2], atol=1e-6)
-    assert not np.allclose(c.v_avg, c.v_prev)  # the new step's own average, not a copy
 
 
 @pytest.fixture(scope="module")
