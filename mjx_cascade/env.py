@@ -301,7 +301,8 @@ class Env:
         penalty = jnp.where(live & terminated, cfg.rewards.termination_penalty * lost, 0.0)
         return EnvState(
             data=data,
-            ctrl=ctrl,
+            # a finished episode's robot simulates on with the batch: its falls are not walking steps
+            ctrl=ctrl.replace(steps=jnp.where(live, ctrl.steps, state.ctrl.steps)),
             t=t,
             done=state.done | terminated | (t >= self.episode_steps),
             terminated=state.terminated | (live & terminated),

@@ -25,7 +25,7 @@ PUSH_STREAM, COMMAND_STREAM = 3, 4  # fold_in indices of the episode key's push 
 class EpisodeResult(NamedTuple):
     fitness: Array  # normalised return (env.fitness)
     steps: Array  # physics steps survived
-    walking_steps: Array  # stance switches
+    walking_steps: Array  # stance switches while the episode ran
     terminated: Array
     diverged: Array
     terms: Array  # [9] unweighted reward terms integrated over the episode

@@ -83,7 +83,8 @@ def make_generation(env: Env) -> Callable:
 
 
 def make_run(env: Env, per_call: int) -> Callable:
-    generation = make_generation(env)
+    # jitted so that `skip`'s shape query and `lax.cond` share one trace of the generation
+    generation = jax.jit(make_generation(env))
 
     def skip(state):
         _, metrics = jax.eval_shape(generation, state)

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import DATA, ROOT
 from mjx_cascade import evaluate, scenario
 
 pytestmark = pytest.mark.slow
@@ -19,37 +19,44 @@ def _script(name):
     return module
 
 
-# the CLI smoke run's settings (test_cli.py), so training compiles once for both; one standing scenario
+# the CLI smoke run's settings and its batched eval (test_cli.py), so training and the checks
+# compile once for both
 SMOKE = {"es.population": 4, "episode.seconds": 0.5}
-STAND = {"name": "stand", "duration": 1.0, "commands": [{"t": 0, "vx": 0.0, "vy": 0.0, "yaw": 0.0}]}
+EVAL_DT = 0.0005
+
+
+def _short_scenarios():
+    return [scenario.load(DATA / "short.json"), scenario.load(DATA / "other.json")]
 
 
 def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
     ttw = _script("time_to_walk")
     cfg = cassie_cfg.override(**SMOKE)
-    result = ttw.time_to_walk(cfg, [scenario.parse(STAND)], dt=cfg.physics.dt, check_every=2, max_generations=3,
+    result = ttw.time_to_walk(cfg, _short_scenarios(), dt=EVAL_DT, check_every=2, max_generations=3,
                               max_seconds=600.0, log=lambda m: None)
     # checks at generation 2 and at the limit (3); stops early only on a pass
     assert [c["generation"] for c in result["checks"]] in ([2], [2, 3])
     assert result["generations"] == result["checks"][-1]["generation"]
     assert result["passed"] == result["checks"][-1]["passed"]
     assert result["physics_steps"] > 0 and result["wall_clock_s"] > 0 and result["check_s"] > 0
-    # the check's verdict is the evaluator's, from the trajectory alone: a 1-s scenario has no
-    # segment long enough to judge, so it passes exactly when the robot stays up
-    check = result["checks"][-1]["scenarios"]["stand"]
-    assert check["segments"] == [] and check["passed"] == (not check["fell"])
+    # the check's verdict is the evaluator's, from the trajectory alone: scenarios under 4 s have
+    # no segment long enough to judge, so each passes exactly when the robot stays up
+    checks = result["checks"][-1]["scenarios"]
+    assert set(checks) == {"short", "other"}
+    for check in checks.values():
+        assert check["segments"] == [] and check["passed"] == (not check["fell"])
     json.dumps(result)  # what the script writes
 
 
 def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     """One compiled simulation serves every policy (the time-to-walk checks rely on it)."""
-    cfg = cassie_cfg.override(**SMOKE)  # the time-to-walk test's checks: one compile for both
-    run = evaluate.Runner(cfg, [scenario.parse(STAND)])
+    cfg = cassie_cfg.override(**SMOKE, **{"physics.dt": EVAL_DT})  # the time-to-walk test's checks
+    run = evaluate.Runner(cfg, _short_scenarios())
     from mjx_cascade.env import make_env
 
     params = make_env(cfg).init_params
     other = np.asarray(params) + np.random.default_rng(0).normal(0.0, 0.5, params.shape).astype(np.float32)
-    (a,), (b,) = run(np.asarray(params)), run(other)
+    a, b = run(np.asarray(params))[0], run(other)[0]
     assert a["qpos"].shape == b["qpos"].shape and not np.allclose(a["qpos"], b["qpos"])
 
 

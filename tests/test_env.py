@@ -64,45 +64,54 @@ def test_the_controller_follows_and_is_scored_against_the_rate_limited_command(c
     np.testing.assert_allclose(x.rpy_error[2], obs.rpy[2] - 2 * env.dt, atol=1e-6)
 
 
+PUSH_AT = 2.0  # s
+
+
 @pytest.fixture(scope="module")
-def standing_still(cassie, cassie_cfg, cassie_pool):
-    """Two-second episodes of the untrained policy, commanded to step in place, without the
-    height regulation (not in the paper; with Cassie's k_height of 1.5, one of these four
-    episodes ended early)."""
-    cfg = cassie_cfg.override(**{"episode.seconds": 2.0, "episode.vx": [0.0, 0.0], "episode.vy": [0.0, 0.0],
+def stepping_then_pushed(cassie, cassie_cfg, cassie_pool):
+    """Three-second episodes commanded to step in place, without the height regulation (not in
+    the paper; with Cassie's k_height of 1.5, one of four 2-s episodes ended early), and a 600 N
+    training push from `PUSH_AT`: three of the untrained policy and one whose network outputs
+    saturate (every parameter 3), which falls long before. One compiled rollout serves the three
+    tests below."""
+    cfg = cassie_cfg.override(**{"episode.seconds": 3.0, "episode.vx": [0.0, 0.0], "episode.vy": [0.0, 0.0],
                                  "episode.yaw": [0.0, 0.0], "randomization.enabled": False,
-                                 "regulators.k_height": 0.0})
-    env = Env(cassie, cfg, cassie_pool, batch=4)
-    params = jnp.stack([env.init_params] * 4)
-    keys = jax.random.split(jax.random.PRNGKey(1), 4)
-    return env, jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
-
-
-def test_an_untrained_policy_steps_in_place(standing_still):
-    """The range middles (what an untrained network outputs) and the regulators step in place
-    from the balanced pool on the nominal model: the starting point the ES improves on. (With
-    Table 5's randomization 7 of 8 such episodes lasted 2 s: robustness is for training to add.)"""
-    env, episodes = standing_still
-    assert np.all(np.isfinite(np.asarray(episodes.fitness)))
-    assert not np.any(np.asarray(episodes.terminated)) and not np.any(np.asarray(episodes.diverged))
-    np.testing.assert_array_equal(np.asarray(episodes.steps), env.episode_steps)
-    # 2 s of steps of at most step_time each (a step ends at touchdown or by time-out)
-    assert np.all(np.asarray(episodes.walking_steps) >= int(0.75 * 2.0 / env.cfg.gait.step_time))
-
-
-def test_a_training_push_topples_the_episodes_that_stood(cassie, cassie_pool, standing_still):
-    """The same episodes with `randomization.push_force` set: a 600 N push from 0.5 s ends them all,
-    none before the push starts."""
-    calm_env, _ = standing_still
-    cfg = calm_env.cfg.override(**{"randomization.push_force": [600.0, 600.0], "randomization.push_after": [0.5, 0.5],
+                                 "regulators.k_height": 0.0, "randomization.push_force": [600.0, 600.0],
+                                 "randomization.push_after": [PUSH_AT, PUSH_AT],
                                  "randomization.push_warmup_generations": 0})
     env = Env(cassie, cfg, cassie_pool, batch=4)
-    params = jnp.stack([env.init_params] * 4)
+    params = jnp.stack([env.init_params] * 3 + [jnp.full_like(env.init_params, 3.0)])
     keys = jax.random.split(jax.random.PRNGKey(1), 4)
-    pushed = jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
-    steps = np.asarray(pushed.steps)
-    assert np.all(np.asarray(pushed.terminated)) and np.all(steps < env.episode_steps)
-    assert np.all(steps > round(0.5 / env.dt))
+    episodes = jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
+    return env, jax.tree.map(np.asarray, episodes)
+
+
+def test_an_untrained_policy_steps_in_place(stepping_then_pushed):
+    """The range middles (what an untrained network outputs) and the regulators step in place
+    from the balanced pool on the nominal model until the push: the starting point the ES
+    improves on. (With Table 5's randomization 7 of 8 such episodes lasted 2 s: robustness is
+    for training to add.)"""
+    env, episodes = stepping_then_pushed
+    assert np.all(np.isfinite(episodes.fitness)) and not np.any(episodes.diverged)
+    assert np.all(episodes.steps[:3] > round(PUSH_AT / env.dt))  # none ended before the push
+    # 2 s of steps of at most step_time each (a step ends at touchdown or by time-out)
+    assert np.all(episodes.walking_steps[:3] >= int(0.75 * PUSH_AT / env.cfg.gait.step_time))
+
+
+def test_a_training_push_topples_the_episodes_that_stood(stepping_then_pushed):
+    """`randomization.push_force` acts: the 600 N push ends every episode that stood until it."""
+    env, episodes = stepping_then_pushed
+    assert np.all(episodes.terminated) and np.all(episodes.steps < env.episode_steps)
+
+
+def test_walking_steps_stop_counting_when_an_episode_ends(stepping_then_pushed):
+    """The saturated policy's robot falls early but simulates on with the batch, its controller
+    still switching stance on time-outs: those switches are not walking steps."""
+    env, episodes = stepping_then_pushed
+    fell, others = episodes.steps[3], episodes.steps[:3]
+    assert fell < 0.5 * PUSH_AT / env.dt and np.all(others > fell + 3 * env.cfg.gait.step_time / env.dt)
+    shortest_step = env.cfg.gait.min_phase * env.cfg.gait.step_time
+    assert episodes.walking_steps[3] <= 1 + fell * env.dt / shortest_step
 
 
 class FaultyEnv(Env):
