@@ -1,9 +1,11 @@
 """The command line as users and outside checks drive it, in subprocesses."""
 
+import functools
 import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +20,22 @@ SMOKE = ["--population", "4", "--episode-seconds", "0.5", "--set", "episode.pool
 def cli(*args, timeout=600, env=None):
     return subprocess.run([sys.executable, "-m", "mjx_cascade.cli", *map(str, args)], capture_output=True,
                           text=True, timeout=timeout, env={**os.environ, **(env or {})}, cwd=ROOT)
+
+
+def start_cli(log, *args):
+    """`cli(*args)` in the background, its output in `log.out` and `log.err`; `()` waits for it and
+    returns the completed process."""
+    out, err = Path(f"{log}.out"), Path(f"{log}.err")
+    with out.open("w") as o, err.open("w") as e:
+        proc = subprocess.Popen([sys.executable, "-m", "mjx_cascade.cli", *map(str, args)], stdout=o, stderr=e,
+                                text=True, cwd=ROOT)
+
+    @functools.cache
+    def result():
+        proc.wait(timeout=600)
+        return subprocess.CompletedProcess(proc.args, proc.returncode, out.read_text(), err.read_text())
+
+    return result
 
 
 @pytest.mark.parametrize("robot, expect, model", [
@@ -43,6 +61,24 @@ def smoke(tmp_path_factory):
     second = cli("train", "--robot", "cassie", "--out", out, "--generations", 3, *SMOKE)
     assert second.returncode == 0, second.stderr[-3000:]
     return out, lines_after_first, first, second
+
+
+@pytest.fixture(scope="module")
+def after_smoke(smoke, tmp_path_factory):
+    """The runs that need only the smoke run start at once, each mostly on one core: `eval` on
+    `short.json` alone and batched with `other.json`, and a warm start from the smoke run's
+    exported policy. `{name: (out, wait)}`, where `wait()` gives the completed process, and
+    `"exported"`: the exported policy."""
+    from mjx_cascade import policies
+
+    tmp = tmp_path_factory.mktemp("after_smoke")
+    exported = policies.export(smoke[0], "cassie", tmp / "policies") / "cassie.npz"
+    ev = ["eval", "--robot", "cassie", "--checkpoint", smoke[0], "--dt", 0.0005, "--json"]
+    runs = {"short": [*ev, "--scenario", DATA / "short.json"],
+            "both": [*ev, "--scenario", DATA / "short.json", DATA / "other.json", "--no-video"],
+            "warm": ["train", "--robot", "cassie", "--init", exported, "--generations", 4, *SMOKE]}
+    jobs = {name: (tmp / name, start_cli(tmp / name, *args, "--out", tmp / name)) for name, args in runs.items()}
+    return {**jobs, "exported": exported}
 
 
 @pytest.mark.slow
@@ -87,12 +123,11 @@ def test_export_ships_a_run_as_a_packaged_policy(smoke, tmp_path):
 
 
 @pytest.mark.slow
-def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_generation(smoke, tmp_path, capsys):
-    from mjx_cascade import checkpoint, policies
+def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_generation(after_smoke, tmp_path, capsys):
+    from mjx_cascade import checkpoint
 
-    exported = policies.export(smoke[0], "cassie", tmp_path / "policies") / "cassie.npz"
-    out = tmp_path / "warm"
-    res = cli("train", "--robot", "cassie", "--out", out, "--init", exported, "--generations", 4, *SMOKE)
+    (out, wait), exported = after_smoke["warm"], after_smoke["exported"]  # train --init EXPORTED --generations 4
+    res = wait()
     assert res.returncode == 0, res.stderr[-3000:]
     assert "warm start" in res.stderr
     lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
@@ -114,11 +149,10 @@ def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_genera
 
 
 @pytest.fixture(scope="module")
-def short_eval(smoke, tmp_path_factory):
+def short_eval(after_smoke):
     """`eval` of the smoke run on `short.json`: `(out, completed process)`."""
-    out = tmp_path_factory.mktemp("eval") / "short"
-    res = cli("eval", "--robot", "cassie", "--checkpoint", smoke[0], "--scenario", DATA / "short.json",
-              "--out", out, "--dt", 0.0005, "--json")
+    out, wait = after_smoke["short"]
+    res = wait()
     assert res.returncode == 0, res.stderr[-3000:]
     return out, res
 
@@ -141,21 +175,21 @@ def test_eval_writes_trajectory_metrics_and_plots(short_eval):
 
 
 @pytest.mark.slow
-def test_eval_runs_several_scenarios_in_one_batch_as_each_runs_alone(smoke, short_eval, tmp_path):
+def test_eval_runs_several_scenarios_in_one_batch_as_each_runs_alone(after_smoke, short_eval):
     """A scenario starts in a batch as it would alone, and a shorter one is cut to its own length.
     (The batch is test_benchmarks.py's: its program is already in the compilation cache.)"""
-    res = cli("eval", "--robot", "cassie", "--checkpoint", smoke[0], "--scenario", DATA / "short.json",
-              DATA / "other.json", "--out", tmp_path / "both", "--dt", 0.0005, "--json", "--no-video")
+    both, wait = after_smoke["both"]  # eval --scenario short.json other.json --no-video
+    res = wait()
     assert res.returncode == 0, res.stderr[-3000:]
     names = [m["scenario"]["name"] for m in json.loads(res.stdout)]
     assert names == ["short", "other"]
-    summary = json.loads((tmp_path / "both" / "summary.json").read_text())
+    summary = json.loads((both / "summary.json").read_text())
     assert [s["scenario"] for s in summary["scenarios"]] == names
-    batched, alone = np.load(tmp_path / "both" / "short" / "trajectory.npz"), np.load(short_eval[0] / "trajectory.npz")
+    batched, alone = np.load(both / "short" / "trajectory.npz"), np.load(short_eval[0] / "trajectory.npz")
     np.testing.assert_array_equal(batched["t"], alone["t"])
     np.testing.assert_array_equal(batched["cmd"], alone["cmd"])
     np.testing.assert_allclose(batched["qpos"], alone["qpos"], atol=1e-4)
-    t = np.load(tmp_path / "both" / "other" / "trajectory.npz")["t"]
+    t = np.load(both / "other" / "trajectory.npz")["t"]
     assert t[-1] == pytest.approx(0.2, abs=0.011) and len(t) < len(alone["t"])
 
 
