@@ -1,6 +1,5 @@
 """The command line as users and outside checks drive it, in subprocesses."""
 
-import functools
 import json
 import os
 import subprocess
@@ -23,19 +22,18 @@ def cli(*args, timeout=600, env=None):
 
 
 def start_cli(log, *args):
-    """`cli(*args)` in the background, its output in `log.out` and `log.err`; `()` waits for it and
-    returns the completed process."""
-    out, err = Path(f"{log}.out"), Path(f"{log}.err")
-    with out.open("w") as o, err.open("w") as e:
-        proc = subprocess.Popen([sys.executable, "-m", "mjx_cascade.cli", *map(str, args)], stdout=o, stderr=e,
-                                text=True, cwd=ROOT)
+    """`cli(*args)` in the background, its output in `log.out` and `log.err` (a pipe left unread
+    could fill): the running process."""
+    with open(f"{log}.out", "w") as out, open(f"{log}.err", "w") as err:
+        return subprocess.Popen([sys.executable, "-m", "mjx_cascade.cli", *map(str, args)], stdout=out, stderr=err,
+                                cwd=ROOT)
 
-    @functools.cache
-    def result():
-        proc.wait(timeout=600)
-        return subprocess.CompletedProcess(proc.args, proc.returncode, out.read_text(), err.read_text())
 
-    return result
+def finished(proc, log):
+    """The completed process of `start_cli(log, ...)`, once it is done."""
+    proc.wait(timeout=600)
+    return subprocess.CompletedProcess(proc.args, proc.returncode, Path(f"{log}.out").read_text(),
+                                       Path(f"{log}.err").read_text())
 
 
 @pytest.mark.parametrize("robot, expect, model", [
@@ -67,7 +65,7 @@ def smoke(tmp_path_factory):
 def after_smoke(smoke, tmp_path_factory):
     """The runs that need only the smoke run start at once, each mostly on one core: `eval` on
     `short.json` alone and batched with `other.json`, and a warm start from the smoke run's
-    exported policy. `{name: (out, wait)}`, where `wait()` gives the completed process, and
+    exported policy. `{name: (out, process)}` (`finished(process, out)` waits for it), and
     `"exported"`: the exported policy."""
     from mjx_cascade import policies
 
@@ -126,8 +124,8 @@ def test_export_ships_a_run_as_a_packaged_policy(smoke, tmp_path):
 def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_generation(after_smoke, tmp_path, capsys):
     from mjx_cascade import checkpoint
 
-    (out, wait), exported = after_smoke["warm"], after_smoke["exported"]  # train --init EXPORTED --generations 4
-    res = wait()
+    (out, proc), exported = after_smoke["warm"], after_smoke["exported"]  # train --init EXPORTED --generations 4
+    res = finished(proc, out)
     assert res.returncode == 0, res.stderr[-3000:]
     assert "warm start" in res.stderr
     lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
@@ -151,8 +149,8 @@ def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_genera
 @pytest.fixture(scope="module")
 def short_eval(after_smoke):
     """`eval` of the smoke run on `short.json`: `(out, completed process)`."""
-    out, wait = after_smoke["short"]
-    res = wait()
+    out, proc = after_smoke["short"]
+    res = finished(proc, out)
     assert res.returncode == 0, res.stderr[-3000:]
     return out, res
 
@@ -178,8 +176,8 @@ def test_eval_writes_trajectory_metrics_and_plots(short_eval):
 def test_eval_runs_several_scenarios_in_one_batch_as_each_runs_alone(after_smoke, short_eval):
     """A scenario starts in a batch as it would alone, and a shorter one is cut to its own length.
     (The batch is test_benchmarks.py's: its program is already in the compilation cache.)"""
-    both, wait = after_smoke["both"]  # eval --scenario short.json other.json --no-video
-    res = wait()
+    both, proc = after_smoke["both"]  # eval --scenario short.json other.json --no-video
+    res = finished(proc, both)
     assert res.returncode == 0, res.stderr[-3000:]
     names = [m["scenario"]["name"] for m in json.loads(res.stdout)]
     assert names == ["short", "other"]

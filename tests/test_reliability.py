@@ -7,12 +7,11 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
 from conftest import ROOT
-from test_cli import SMOKE, cli
+from test_cli import SMOKE, cli, finished, start_cli
 
 pytestmark = pytest.mark.slow
 
@@ -42,10 +41,8 @@ def sha(out):
 
 
 def start(out):
-    """`RUN` into `out` in the background, its stderr in `out.stderr` (a pipe left unread could fill)."""
-    with open(f"{out}.stderr", "w") as err:
-        return subprocess.Popen([sys.executable, "-m", "mjx_cascade.cli", *RUN[:3], "--out", str(out), *RUN[3:]],
-                                cwd=ROOT, stdout=subprocess.DEVNULL, stderr=err)
+    """`RUN` into `out` in the background."""
+    return start_cli(out, *RUN[:3], "--out", out, *RUN[3:])
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +54,8 @@ def uninterrupted(tmp_path_factory):
 
     @functools.cache
     def info():
-        assert proc.wait(timeout=600) == 0, Path(f"{out}.stderr").read_text()[-3000:]
+        res = finished(proc, out)
+        assert res.returncode == 0, res.stderr[-3000:]
         return sha(out)
 
     yield info
