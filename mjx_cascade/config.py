@@ -53,6 +53,9 @@ class GaitConfig:
     max_phase: float  # time-out: the step ends here whatever the contact force
     grf_threshold: float  # N, swing-foot normal force that counts as touchdown
     action_scale: float  # scales every learned joint's range about its nominal
+    # which foot lifts first from standing (not in the paper): "random" (a fair coin per episode),
+    # or "command": the foot on the side of the commanded sideways velocity (env.first_stance)
+    first_swing: str = "random"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -200,6 +203,7 @@ class Config:
 
 
 ROBOTS = ("cassie", "digit")
+FIRST_SWING = ("random", "command")  # gait.first_swing
 
 
 def to_dict(cfg: Any) -> dict:
@@ -380,6 +384,7 @@ def validate(cfg: Config) -> None:
     need(g.max_phase >= 1.0, "gait.max_phase must be >= 1 (a step may not time out early)")
     need(g.grf_threshold > 0, "gait.grf_threshold must be positive")
     need(g.action_scale > 0, "gait.action_scale must be positive")
+    need(g.first_swing in FIRST_SWING, f"gait.first_swing must be one of {', '.join(FIRST_SWING)}")
     need(cfg.policy.hidden_layers >= 0 and cfg.policy.hidden_units >= 1, "policy size must be positive")
     r = cfg.regulators
     need(0 < r.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")

@@ -156,6 +156,20 @@ class Env:
         return gait.coefficients(action, q_start, self.action_low, self.action_high)
 
     # ------------------------------------------------------------------ reset
+    def first_stance(self, key: Array, cmd: Array) -> Array:
+        """The foot that stands through the first step, per `gait.first_swing`.
+
+        "command" (not in the paper): lifting a foot from standing lets the CoM, which starts
+        between the feet, fall towards that foot's side, so the foot on the side of the commanded
+        sideways velocity (`cmd[1]`, positive to the left) swings first; with vy = 0, a coin.
+        Started the other way, the first step drifts against the command.
+        """
+        coin = jax.random.bernoulli(key).astype(jnp.int32)
+        if self.cfg.gait.first_swing == "random":
+            return coin
+        toward = jnp.where(cmd[1] > 0, gait.RIGHT, gait.LEFT)  # vy > 0: the right foot stands, the left swings
+        return jnp.where(cmd[1] == 0, coin, toward).astype(jnp.int32)
+
     def reset(self, params: Array, key: Array, cmd: Array, model: mjx.Model | None = None) -> EnvState:
         """Start standing, from a random member of the balanced pool, with command `cmd` [vx, vy, yaw]."""
         model = self.model if model is None else model
@@ -164,7 +178,7 @@ class Env:
         data = self.data_template.replace(qpos=self.pool_qpos[i], qvel=self.pool_qvel[i])
         data = mjx.forward(model, data)
         obs = self.observe(data, model)
-        stance = jax.random.bernoulli(k_side).astype(jnp.int32)
+        stance = self.first_stance(k_side, cmd)
         zeros2 = jnp.zeros(2)
         ctrl = ControllerState(
             stance=stance,

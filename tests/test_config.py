@@ -79,7 +79,9 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
     del data["regulators"]["k_i_drift_y"]
     del data["regulators"]["command_rate"]
     del data["rewards"]["velocity_steps"]
+    del data["gait"]["first_swing"]
     cfg = config.from_dict(data)
+    assert cfg.gait.first_swing == "random"  # then a coin chose the first step's foot
     assert cfg.regulators.command_rate == (0.0, 0.0)  # then commands were followed at once
     assert cfg.randomization.push_force == (0.0, 0.0) and cfg.episode.command_change == (0.0, 0.0)
     assert cfg.regulators.k_i_drift_y == 0.05  # then one gain, 0.05, served both drift terms
@@ -91,7 +93,8 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
                                         ("episode.command_change", [3, 1]), ("episode.command_change", [-1, 1]),
                                         ("regulators.command_rate", [-1, 1]),
                                         ("randomization.push_warmup_generations", -1),
-                                        ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0)])
+                                        ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0),
+                                        ("gait.first_swing", "left")])
 def test_bad_push_command_change_and_command_rate_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})

@@ -66,6 +66,23 @@ def test_the_controller_follows_and_is_scored_against_the_rate_limited_command(c
     np.testing.assert_allclose(x.rpy_error[2], obs.rpy[2] - 2 * env.dt, atol=1e-6)
 
 
+def test_the_first_step_lifts_the_foot_on_the_side_of_the_commanded_sideways_velocity(cassie, cassie_cfg, cassie_pool):
+    """`gait.first_swing: command`: vy > 0 (to the left) stands on the right foot and swings the
+    left; vy < 0 the other way; vy = 0 and `random` toss the same coin."""
+    coin = Env(cassie, cassie_cfg.override(**{"gait.first_swing": "random"}), cassie_pool)
+    toward = Env(cassie, cassie_cfg.override(**{"gait.first_swing": "command"}), cassie_pool)
+    keys = jax.random.split(jax.random.PRNGKey(3), 16)
+    tossed = np.array([int(coin.first_stance(k, jnp.zeros(3))) for k in keys])
+    assert set(tossed) == {gait.LEFT, gait.RIGHT}
+    for k, side in zip(keys, tossed):
+        assert int(coin.first_stance(k, jnp.array([0.3, 0.2, 0.0]))) == side
+        assert int(toward.first_stance(k, jnp.array([0.0, 0.0, 0.4]))) == side
+        assert int(toward.first_stance(k, jnp.array([0.3, 0.2, 0.0]))) == gait.RIGHT
+        assert int(toward.first_stance(k, jnp.array([-0.2, -0.05, 0.3]))) == gait.LEFT
+    state = jax.jit(toward.reset)(toward.init_params, keys[0], jnp.array([0.0, -0.1, 0.0]))
+    assert int(state.ctrl.stance) == gait.LEFT
+
+
 PUSH_AT = 2.0  # s
 
 
