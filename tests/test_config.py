@@ -95,7 +95,7 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
                                         ("randomization.push_warmup_generations", -1),
                                         ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0),
                                         ("gait.first_swing", "left")])
-def test_bad_push_command_change_and_command_rate_settings_are_refused(key, value):
+def test_bad_values_of_the_newer_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})
 
