@@ -80,6 +80,9 @@ def build_parser() -> Parser:
     ev.add_argument("--impl", choices=("auto", "jax", "warp"))
     ev.add_argument("--json", action="store_true")
     ev.add_argument("--no-video", action="store_true", help="skip rendering video.gif")
+    ev.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="change a controller or physics setting of the policy's config (gait.*, "
+                         "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
     ev.set_defaults(func=cmd_eval)
 
     rob = sub.add_parser("robustness", help="success rates against pushes, slopes, rough ground and mass error")
@@ -92,6 +95,9 @@ def build_parser() -> Parser:
     rob.add_argument("--seconds", type=float, help="length of each trial, s (default 10)")
     rob.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
     rob.add_argument("--impl", choices=("auto", "jax", "warp"))
+    rob.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="change a controller or physics setting of the policy's config (gait.*, "
+                         "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
     rob.add_argument("--json", action="store_true")
     rob.set_defaults(func=cmd_robustness)
     return p
@@ -219,7 +225,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     scenarios = [scenario.load(f) for f in args.scenario]
     model, out = _simulation_args(args)
     metrics = evaluate.evaluate(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
-                                dt=args.dt, impl=args.impl, video=not args.no_video)
+                                dt=args.dt, impl=args.impl, video=not args.no_video,
+                                settings=config_lib.parse_assignments(args.set))
     if args.json:
         print(json.dumps(metrics[0] if len(metrics) == 1 else metrics, indent=2))
         return 0
@@ -246,7 +253,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     sweep = dataclasses.replace(robustness.Sweep(), **given)
     model, out = _simulation_args(args)
     results, _ = robustness.sweep(args.robot, out, sweep, checkpoint_dir=args.checkpoint, model_path=model,
-                                  dt=args.dt, impl=args.impl)
+                                  dt=args.dt, impl=args.impl, settings=config_lib.parse_assignments(args.set))
     if args.json:
         print(json.dumps({k: v for k, v in results.items() if k != "trials"}, indent=2))
     else:

@@ -32,17 +32,38 @@ FALL_HEIGHT, FALL_TILT = 0.6, 0.6
 BOUNDS = {"vx": 0.10, "vy": 0.10, "yaw": 0.15}
 
 
+# What an evaluation may change about the policy's own config: the controller and the physics it
+# runs in. The policy's shape (`policy.*`, `gait.bezier_order`) is fixed by its parameters, and the
+# training-only sections (rewards, episode, ES, ...) do not act in an evaluation.
+CONTROLLER_SECTIONS = ("gait", "regulators", "physics")
+SHAPE_SETTINGS = ("gait.bezier_order",)
+
+
+def check_controller_settings(settings: dict) -> None:
+    """Refuse evaluation overrides outside the controller and physics (`CONTROLLER_SECTIONS`)."""
+    for key in settings:
+        if key.split(".")[0] not in CONTROLLER_SECTIONS or key in SHAPE_SETTINGS:
+            raise ConfigError(f"an evaluation can change only {', '.join(s + '.*' for s in CONTROLLER_SECTIONS)} "
+                              f"settings (not {', '.join(SHAPE_SETTINGS)}), got {key!r}")
+
+
 def load_policy(robot: str, checkpoint_dir: str | None, dt: float | None = None,
-                impl: str | None = None) -> tuple[Config, np.ndarray, dict]:
-    """`(training config, flat parameters, metadata)` from a checkpoint, or the shipped policy;
-    `dt` and `impl`, where given, replace the config's physics time step and backend."""
+                impl: str | None = None, settings: dict | None = None) -> tuple[Config, np.ndarray, dict]:
+    """`(training config, flat parameters, metadata)` from a checkpoint, or the shipped policy.
+
+    `dt` and `impl`, where given, replace the config's physics time step and backend; `settings`
+    (`{"regulators.k_phr": 0.4, ...}`, the command line's `--set`) change the controller the same
+    parameters run in, to measure what a setting does without retraining.
+    """
+    settings = dict(settings or {})
+    check_controller_settings(settings)
     if checkpoint_dir:
         meta, params = checkpoint.read(checkpoint_dir)
         checkpoint.check_robot(meta, robot)
     else:
         meta, params = policies.load(robot)
     # the backend it trained on says nothing about where it runs now
-    overrides = {"physics.impl": impl or "auto"}
+    overrides = {"physics.impl": impl or "auto", **settings}
     if dt is not None:
         overrides["physics.dt"] = dt
     return from_dict(meta["config"]).override(**overrides), params, meta
@@ -183,20 +204,22 @@ def tracking_metrics(traj: dict, settle: float = 2.0, min_segment: float = 4.0, 
 
 def evaluate(robot: str, scenarios: Sequence[Scenario], out: str | Path, checkpoint_dir: str | None = None,
              model_path: str | None = None, dt: float | None = None, impl: str | None = None,
-             video: bool = True) -> list[dict]:
+             video: bool = True, settings: dict | None = None) -> list[dict]:
     """Run `scenarios` and write, for each, `trajectory.npz`, `metrics.json`, PNG plots and, where
     MuJoCo can render, `video.gif` (`metrics["video"]` names the file or says why there is none).
 
     One scenario writes into `out`; several write into `out/<name>/`, plus `out/summary.json`
-    (each scenario's verdict). Scenarios that share a terrain run in one vmapped call.
+    (each scenario's verdict). Scenarios that share a terrain run in one vmapped call. `settings`
+    change the policy's controller (`load_policy`); each metrics file records them.
     """
     scenarios = list(scenarios)
     names = [s.name for s in scenarios]
     if len(set(names)) != len(names):
         raise ConfigError("scenario names must differ (each writes into out/<name>/)")
-    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl)
+    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl, settings)
     out = Path(out)
-    policy = {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params)}
+    policy = {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params),
+              "settings": dict(settings or {})}
     results = {}
     for runner in runners(cfg, scenarios, model_path):
         for scenario, traj in zip(runner.scenarios, runner(params)):

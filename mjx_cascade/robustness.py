@@ -266,13 +266,15 @@ def figures(results: dict, sim: dict, out: Path, title: str) -> list[str]:
 
 
 def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | None = None,
-          model_path: str | None = None, dt: float | None = None, impl: str | None = None) -> tuple[dict, dict]:
+          model_path: str | None = None, dt: float | None = None, impl: str | None = None,
+          settings: dict | None = None) -> tuple[dict, dict]:
     """Run the sweep with a checkpoint or the shipped policy and write `robustness.json`,
-    `robustness.md`, `robustness.png` and the Fig. 11, 12 and 14 plots into `out`.
+    `robustness.md`, `robustness.png` and the Fig. 11, 12 and 14 plots into `out`. `settings`
+    change the policy's controller (`evaluate.load_policy`); the results record them.
 
     Returns `(results, trajectories)` as `run` does, the results with the run's provenance.
     """
-    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl)
+    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl, settings)
     start = time.perf_counter()
     results, sim = run(cfg, params, sweep_cfg, model_path)
     results = {
@@ -281,7 +283,8 @@ def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | N
         "backend": jax.default_backend(),
         "impl": resolve_impl(cfg.physics.impl),
         "dt": cfg.physics.dt,
-        "policy": {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params)},
+        "policy": {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params),
+                   "settings": dict(settings or {})},
         "wall_clock_s": time.perf_counter() - start,
         **results,
     }
@@ -304,4 +307,8 @@ def report(results: dict) -> str:
             f"{s['trials']} trials per cell walking at {s['speed']} m/s for {s['seconds']:g} s; "
             f"pushes of {s['push_duration']} s on the pelvis at a random phase after {s['push_after']:g} s; "
             f"dt {results['dt']} s on {results['device']} ({results['impl']}), {results['wall_clock_s']:.0f} s wall-clock.\n\n")
+    changed = results["policy"].get("settings")
+    if changed:  # results of a controller the policy did not train with say so first
+        head += "Controller settings changed from the policy's config: " + ", ".join(
+            f"`{k}={v}`" for k, v in changed.items()) + ".\n\n"
     return head + markdown(results)

@@ -72,7 +72,7 @@ def after_smoke(smoke, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("after_smoke")
     exported = policies.export(smoke[0], "cassie", tmp / "policies") / "cassie.npz"
     ev = ["eval", "--robot", "cassie", "--checkpoint", smoke[0], "--dt", 0.0005, "--json"]
-    runs = {"short": [*ev, "--scenario", DATA / "short.json"],
+    runs = {"short": [*ev, "--scenario", DATA / "short.json", "--set", "regulators.k_phr=0.3"],  # the config's own value
             "both": [*ev, "--scenario", DATA / "short.json", DATA / "other.json", "--no-video"],
             "warm": ["train", "--robot", "cassie", "--init", exported, "--generations", 4, *SMOKE]}
     jobs = {name: (tmp / name, start_cli(tmp / name, *args, "--out", tmp / name)) for name, args in runs.items()}
@@ -168,6 +168,7 @@ def test_eval_writes_trajectory_metrics_and_plots(short_eval):
     metrics = json.loads((out / "metrics.json").read_text())
     assert set(metrics) >= {"fell", "segments", "passed", "policy"}
     assert json.loads(res.stdout)["policy"]["generation"] == 3
+    assert metrics["policy"]["settings"] == {"regulators.k_phr": "0.3"}  # what --set changed, as given
     for png in ("tracking.png", "limit_cycles.png"):
         assert (out / png).stat().st_size > 10_000
 
@@ -244,7 +245,29 @@ def bad_inputs(tmp_path):
         (["info", "--checkpoint", ckpt_free], "not a checkpoint"),
         (["robustness", "--robot", "cassie", "--axes", "push", "wind", "--out"], "unknown sweep axis 'wind'"),
         (["robustness", "--robot", "cassie", "--dt", "-1", "--out"], "--dt"),
+        # an evaluation changes only the controller and physics the policy runs in
+        (["eval", "--robot", "cassie", "--scenario", scen(GOOD), "--set", "rewards.e_vy=0.1", "--out"],
+         "can change only"),
+        (["eval", "--robot", "cassie", "--scenario", scen(GOOD), "--set", "gait.bezier_order=4", "--out"],
+         "gait.bezier_order"),
+        (["eval", "--robot", "cassie", "--scenario", scen(GOOD), "--set", "gait.first_swing=sideways", "--out"],
+         "gait.first_swing"),
+        (["eval", "--robot", "cassie", "--scenario", scen(GOOD), "--set", "regulators.k_phr", "--out"], "KEY=VALUE"),
+        (["robustness", "--robot", "cassie", "--set", "policy.hidden_units=16", "--out"], "can change only"),
     ]
+
+
+def test_eval_settings_change_the_controller_of_the_same_parameters():
+    """`eval --set` measures a controller setting on a trained policy without retraining it."""
+    from mjx_cascade import config, evaluate
+
+    base, params, _ = evaluate.load_policy("cassie", None, dt=0.0005)
+    cfg, changed, _ = evaluate.load_policy("cassie", None, dt=0.0005,
+                                           settings={"regulators.k_phr": "0.45", "gait.first_swing": "command"})
+    assert cfg.regulators.k_phr == 0.45 and cfg.gait.first_swing == "command" and cfg.physics.dt == 0.0005
+    np.testing.assert_array_equal(changed, params)
+    undone = cfg.override(**{"regulators.k_phr": base.regulators.k_phr, "gait.first_swing": base.gait.first_swing})
+    assert config.to_dict(undone) == config.to_dict(base)  # nothing else moved
 
 
 def _main(args, capsys):
