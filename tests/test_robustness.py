@@ -87,7 +87,8 @@ def test_a_small_sweep_with_the_shipped_policy(tmp_path):
     """Pushes of 0 and 400 N and slopes of +-11 degrees, one trial each, in two compiled calls."""
     sweep = robustness.Sweep(axes=("push", "slope"), trials=1, seconds=4.5, push_after=2.0, judge_seconds=1.5,
                              push_forces=(0.0, 400.0), slopes=(-11.0, 11.0))
-    results, sim = robustness.sweep("cassie", tmp_path, sweep, dt=0.002)
+    # the config's own k_phr, so the program is the same; the results must still record the change
+    results, sim = robustness.sweep("cassie", tmp_path, sweep, dt=0.002, settings={"regulators.k_phr": "0.3"})
     rows = {(r["level"], r["direction"]): r for r in results["cells"]["push"]}
     assert all(rows[(0.0, d)]["rate"] == 1.0 for d in robustness.DIRECTIONS)  # it walks undisturbed
     assert all(rows[(400.0, d)]["rate"] == 0.0 for d in robustness.DIRECTIONS)  # and 400 N knocks it over
@@ -103,7 +104,9 @@ def test_a_small_sweep_with_the_shipped_policy(tmp_path):
             np.testing.assert_allclose(sim["traj"][i]["ground"], want, atol=2e-3)
     saved = json.loads((tmp_path / "robustness.json").read_text())
     assert saved["cells"] == json.loads(json.dumps(results["cells"]))
+    assert saved["policy"]["settings"] == {"regulators.k_phr": "0.3"}
     table = (tmp_path / "robustness.md").read_text()
+    assert "Controller settings changed from the policy's config: `regulators.k_phr=0.3`." in table
     assert "| 400 | 0/1 | 0/1 | 0/1 | 0/1 |" in table and "| -11 | " in table
     for png in ("robustness.png", "push_response.png", "push_limit_cycle.png", "terrain_tracking.png"):
         assert (tmp_path / png).stat().st_size > 10_000
