@@ -62,11 +62,20 @@ def load_policy(robot: str, checkpoint_dir: str | None, dt: float | None = None,
         checkpoint.check_robot(meta, robot)
     else:
         meta, params = policies.load(robot)
-    # the backend it trained on says nothing about where it runs now
-    overrides = {"physics.impl": impl or "auto", **settings}
+    # the backend it trained on says nothing about where it runs now; --dt and --impl win over --set
+    overrides = {"physics.impl": "auto", **settings}
+    if impl:
+        overrides["physics.impl"] = impl
     if dt is not None:
         overrides["physics.dt"] = dt
     return from_dict(meta["config"]).override(**overrides), params, meta
+
+
+def policy_record(meta: dict, params: np.ndarray, settings: dict | None = None) -> dict:
+    """What an evaluation's results say about the policy it ran: generation, parameter hash and
+    the controller settings changed from its config."""
+    return {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params),
+            "settings": dict(settings or {})}
 
 
 class Runner:
@@ -218,8 +227,7 @@ def evaluate(robot: str, scenarios: Sequence[Scenario], out: str | Path, checkpo
         raise ConfigError("scenario names must differ (each writes into out/<name>/)")
     cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl, settings)
     out = Path(out)
-    policy = {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params),
-              "settings": dict(settings or {})}
+    policy = policy_record(meta, params, settings)
     results = {}
     for runner in runners(cfg, scenarios, model_path):
         for scenario, traj in zip(runner.scenarios, runner(params)):

@@ -26,10 +26,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import checkpoint, plots, randomization
+from mjx_cascade import plots, randomization
 from mjx_cascade.config import Config, ConfigError
 from mjx_cascade.env import Env, make_env
-from mjx_cascade.evaluate import RECORD_PERIOD, fallen, joint_layout, load_policy
+from mjx_cascade.evaluate import RECORD_PERIOD, fallen, joint_layout, load_policy, policy_record
 from mjx_cascade.physics import resolve_impl
 from mjx_cascade.robots import scene
 from mjx_cascade.trajectory import heading_velocity, moving_average
@@ -283,8 +283,7 @@ def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | N
         "backend": jax.default_backend(),
         "impl": resolve_impl(cfg.physics.impl),
         "dt": cfg.physics.dt,
-        "policy": {"generation": meta.get("generation"), "params_sha256": checkpoint.params_sha256(params),
-                   "settings": dict(settings or {})},
+        "policy": policy_record(meta, params, settings),
         "wall_clock_s": time.perf_counter() - start,
         **results,
     }

@@ -268,6 +268,12 @@ def test_eval_settings_change_the_controller_of_the_same_parameters():
     np.testing.assert_array_equal(changed, params)
     undone = cfg.override(**{"regulators.k_phr": base.regulators.k_phr, "gait.first_swing": base.gait.first_swing})
     assert config.to_dict(undone) == config.to_dict(base)  # nothing else moved
+    # the physics flags win over --set, and --set alone reaches the physics
+    flags, _, _ = evaluate.load_policy("cassie", None, dt=0.0005, impl="jax",
+                                       settings={"physics.dt": "0.001", "physics.impl": "warp"})
+    assert flags.physics.dt == 0.0005 and flags.physics.impl == "jax"
+    alone, _, _ = evaluate.load_policy("cassie", None, settings={"physics.impl": "jax", "physics.dt": "0.002"})
+    assert alone.physics.impl == "jax" and alone.physics.dt == 0.002
 
 
 def _main(args, capsys):
