@@ -23,8 +23,12 @@ if os.environ.get("MENAGERIE_ROOT"):
 
 @pytest.fixture(scope="session", autouse=True)
 def compilation_cache(tmp_path_factory):
-    """One XLA cache for the whole session, shared with the CLI subprocesses."""
-    path = os.environ.get("JAX_COMPILATION_CACHE_DIR") or str(tmp_path_factory.mktemp("xla"))
+    """One XLA cache for the whole session, shared with the CLI subprocesses and, under
+    `pytest -n`, by every worker (their temporary directories sit side by side)."""
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    path = os.environ.get("JAX_COMPILATION_CACHE_DIR") or str(shared / "xla")
+    Path(path).mkdir(parents=True, exist_ok=True)
     os.environ["JAX_COMPILATION_CACHE_DIR"] = path
     from mjx_cascade import _xla
 
