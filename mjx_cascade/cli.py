@@ -80,9 +80,7 @@ def build_parser() -> Parser:
     ev.add_argument("--impl", choices=("auto", "jax", "warp"))
     ev.add_argument("--json", action="store_true")
     ev.add_argument("--no-video", action="store_true", help="skip rendering video.gif")
-    ev.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="change a controller or physics setting of the policy's config (gait.*, "
-                         "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
+    _controller_settings_arg(ev)
     ev.set_defaults(func=cmd_eval)
 
     rob = sub.add_parser("robustness", help="success rates against pushes, slopes, rough ground and mass error")
@@ -95,9 +93,7 @@ def build_parser() -> Parser:
     rob.add_argument("--seconds", type=float, help="length of each trial, s (default 10)")
     rob.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
     rob.add_argument("--impl", choices=("auto", "jax", "warp"))
-    rob.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="change a controller or physics setting of the policy's config (gait.*, "
-                         "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
+    _controller_settings_arg(rob)
     rob.add_argument("--json", action="store_true")
     rob.set_defaults(func=cmd_robustness)
     return p
@@ -146,6 +142,13 @@ def cmd_info(args: argparse.Namespace) -> int:
         "model": str(model) if model else "default",
     }, args.json)
     return 0
+
+
+def _controller_settings_arg(parser: argparse.ArgumentParser) -> None:
+    """`--set KEY=VALUE` of `eval` and `robustness` (`evaluate.check_controller_settings`)."""
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="change a controller or physics setting of the policy's config (gait.*, "
+                             "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
 
 
 def policy_shape(definition, cfg: config_lib.Config) -> tuple[int, int]:
