@@ -62,6 +62,10 @@ class GaitConfig:
 class PolicyConfig:
     hidden_layers: int
     hidden_units: int
+    # the features of a right-stance step are mirrored (lateral components negated) into the
+    # left-stance picture that the role coordinates use (gait.velocity_to_role); false, the
+    # default, is what configs saved before this setting existed did
+    mirror_lateral: bool = False
 
 
 @dataclasses.dataclass(frozen=True)

@@ -150,7 +150,10 @@ class Env:
         """pi_y o G: Bezier coefficients for a step starting now (impact invariance at `q`)."""
         r = self.robot
         q_role = gait.absolute_to_role(q, stance, self.robot.mirror)
-        s = features.features(cmd[:2], v_avg)
+        v_des = cmd[:2]
+        if self.cfg.policy.mirror_lateral:
+            v_des, v_avg = gait.velocity_to_role(v_des, stance), gait.velocity_to_role(v_avg, stance)
+        s = features.features(v_des, v_avg)
         action = policy_lib.apply_flat(self.policy, self.unravel, params, s)
         q_start = q_role[r.learned_role, r.learned_joint]
         return gait.coefficients(action, q_start, self.action_low, self.action_high)

@@ -29,6 +29,7 @@ from jax import Array
 
 STANCE, SWING = 0, 1  # rows of role coordinates
 LEFT, RIGHT = 0, 1  # rows of absolute per-leg coordinates; also the value of `stance`
+LATERAL_MIRROR = np.array([1.0, -1.0], np.float32)  # a heading-frame [x, y] vector seen in a mirror
 
 
 def role_to_absolute(role: Array, stance: Array, mirror: Array) -> Array:
@@ -44,6 +45,22 @@ def absolute_to_role(absolute: Array, stance: Array, mirror: Array) -> Array:
     right_stance = stance == RIGHT
     left, right = absolute[LEFT], absolute[RIGHT] * mirror
     return jnp.stack([jnp.where(right_stance, right, left), jnp.where(right_stance, left, right)])
+
+
+def velocity_to_role(v: Array, stance: Array) -> Array:
+    """Heading-frame velocities `[..., 2]` as the left-stance gait sees them: the state's half of T.
+
+    Role coordinates describe every walking step as a left-stance step (a right-stance step is
+    its mirror image across the sagittal plane), so the policy that learns "the" step's
+    coefficients must see the state in the same picture: in right stance the lateral
+    components change sign. Used for the policy's features when `policy.mirror_lateral` is set.
+    Deviation (reading of eq. 12): the paper maps the coefficients, alpha^L = T alpha^R, and is
+    silent on the state. Without the state's mirror the same features give the same role
+    coefficients in both stances, so a sideways gait, which needs different swing hip rolls on
+    the two sides, can come from the policy only through the sway of the step-averaged velocity
+    (which alternates with the stance side) or from the regulators.
+    """
+    return jnp.where(stance == RIGHT, v * LATERAL_MIRROR, v)
 
 
 def symmetry_matrix(roles: np.ndarray, types: np.ndarray, mirror: np.ndarray) -> np.ndarray:

@@ -80,12 +80,14 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
     del data["regulators"]["command_rate"]
     del data["rewards"]["velocity_steps"]
     del data["gait"]["first_swing"]
+    del data["policy"]["mirror_lateral"]
     cfg = config.from_dict(data)
     assert cfg.gait.first_swing == "random"  # then a coin chose the first step's foot
     assert cfg.regulators.command_rate == (0.0, 0.0)  # then commands were followed at once
     assert cfg.randomization.push_force == (0.0, 0.0) and cfg.episode.command_change == (0.0, 0.0)
     assert cfg.regulators.k_i_drift_y == 0.05  # then one gain, 0.05, served both drift terms
     assert cfg.rewards.velocity_steps == 1  # then the last step's average was scored
+    assert not cfg.policy.mirror_lateral  # then both stances saw the state unmirrored
 
 
 @pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
@@ -94,7 +96,7 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
                                         ("regulators.command_rate", [-1, 1]),
                                         ("randomization.push_warmup_generations", -1),
                                         ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0),
-                                        ("gait.first_swing", "left")])
+                                        ("gait.first_swing", "left"), ("policy.mirror_lateral", 1)])
 def test_bad_values_of_the_newer_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})
