@@ -96,3 +96,31 @@ def test_tracking_fails_on_velocity_error_and_on_a_fall():
     assert all(abs(s["vx_mae"] - 0.15) < 0.02 for s in slow["segments"] if "vx_mae" in s)
     fallen = evaluate.tracking_metrics(_tracking_trajectory(_profile, height=0.5))
     assert fallen["fell"] and fallen["fall_time"] == pytest.approx(0.01) and not fallen["passed"]
+
+
+def test_drawn_profiles_are_scenarios_within_their_ranges_and_reproducible(tmp_path):
+    """`benchmarks/draw_profiles.py`, which drew the random profiles in `benchmarks/scenarios/`."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("draw_profiles", ROOT / "benchmarks" / "draw_profiles.py")
+    draw = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(draw)
+    args = ["--prefix", "p", "--seed", "3", "--count", "4", "--vx", "-0.2", "0.5", "--vy", "-0.2", "0.2",
+            "--heading-step", "0.3"]
+    for out in ("a", "b"):
+        draw.main(args + ["--out", str(tmp_path / out)])
+    names = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert names == ["p01.json", "p02.json", "p03.json", "p04.json"]
+    for name in names:
+        assert (tmp_path / "a" / name).read_text() == (tmp_path / "b" / name).read_text()
+        s = scenario.load(tmp_path / "a" / name)
+        assert s.duration == 20.0 and s.name == name[:-5]
+        c = np.array(s.commands)
+        assert c[0, 0] == 0.0 and set(np.diff(c[:, 0])) <= {4.0, 5.0, 6.0} and c[-1, 0] < 20.0
+        assert np.all((-0.2 <= c[:, 1]) & (c[:, 1] <= 0.5)) and np.all(np.abs(c[:, 2]) <= 0.2)
+        assert np.all(np.abs(np.diff(np.concatenate([[0.0], c[:, 3]]))) <= 0.3)
+    # the Cassie profiles drawn for the current policy's judgement come from the same script
+    draw.main(["--prefix", "rand", "--seed", "901", "--first", "901", "--count", "10", "--vx", "-0.3", "0.8",
+               "--vy", "-0.3", "0.3", "--heading-step", "0.5", "--out", str(tmp_path / "c")])
+    for p in sorted((tmp_path / "c").iterdir()):
+        assert json.loads(p.read_text()) == json.loads((ROOT / "benchmarks" / "scenarios" / p.name).read_text())
