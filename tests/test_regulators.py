@@ -91,6 +91,15 @@ def test_rate_limit_ramps_each_axis_and_wraps_the_heading():
     np.testing.assert_array_equal(regulators.rate_limit(jnp.zeros(3), cmd, dt, off), cmd)
 
 
+def test_a_command_held_since_reset_is_followed_bit_for_bit_at_any_rate():
+    """The followed command starts at the given one (env.reset), so an episode with one command
+    (episode.command_change 0) trains the same whatever regulators.command_rate is."""
+    reg = dataclasses.replace(REG, command_rate=(1.0, 1.0))
+    cmd = jnp.asarray(np.random.default_rng(0).uniform([-0.3, -0.3, -3.2], [0.8, 0.3, 3.2], (64, 3)), jnp.float32)
+    held = jax.vmap(lambda c: regulators.rate_limit(c, c, 0.001, reg))(cmd)
+    np.testing.assert_array_equal(held, cmd)
+
+
 def test_height_fix_extends_only_for_a_sag_and_saturates():
     reg = dataclasses.replace(REG, k_height=2.0)
     assert float(regulators.height_fix(jnp.float32(0.86), 0.91, reg)) == pytest.approx(0.1)
