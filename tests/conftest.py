@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 
@@ -19,6 +20,14 @@ if (SHARED / "menagerie").is_dir():
     os.environ.setdefault("MENAGERIE_ROOT", str(SHARED / "menagerie"))
 if os.environ.get("MENAGERIE_ROOT"):
     os.environ["MENAGERIE_ROOT"] = str(Path(os.environ["MENAGERIE_ROOT"]).resolve())
+
+
+def benchmark_script(name: str):
+    """`benchmarks/<name>.py` as a module (the scripts are not a package)."""
+    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -1,22 +1,14 @@
 """The benchmark scripts, run tiny on the CPU: what they report is what they measured."""
 
-import importlib.util
 import json
 
 import numpy as np
 import pytest
 
-from conftest import DATA, ROOT
+from conftest import DATA, ROOT, benchmark_script
 from mjx_cascade import evaluate, scenario
 
 pytestmark = pytest.mark.slow
-
-
-def _script(name):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 # the CLI smoke run's settings and its batched eval (test_cli.py), so training and the checks
@@ -30,7 +22,7 @@ def _short_scenarios():
 
 
 def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
-    ttw = _script("time_to_walk")
+    ttw = benchmark_script("time_to_walk")
     cfg = cassie_cfg.override(**SMOKE)
     result = ttw.time_to_walk(cfg, _short_scenarios(), dt=EVAL_DT, check_every=2, max_generations=3,
                               max_seconds=600.0, log=lambda m: None)
@@ -61,7 +53,7 @@ def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
 
 
 def test_time_to_walk_checks_twelve_flat_profiles_by_default():
-    ttw = _script("time_to_walk")
+    ttw = benchmark_script("time_to_walk")
     scenarios = [scenario.load(ROOT / f) for f in ttw.DEFAULT_SCENARIOS]
     assert len({s.name for s in scenarios}) == 12
     assert all(s.terrain == {"type": "flat"} and s.duration >= 12.0 for s in scenarios)  # one batch

@@ -5,7 +5,7 @@ import pytest
 
 from mjx_cascade import evaluate, scenario
 from mjx_cascade.config import ConfigError
-from conftest import DATA, ROOT
+from conftest import DATA, ROOT, benchmark_script
 
 GOOD = {
     "name": "s",
@@ -100,11 +100,7 @@ def test_tracking_fails_on_velocity_error_and_on_a_fall():
 
 def test_drawn_profiles_are_scenarios_within_their_ranges_and_reproducible(tmp_path):
     """`benchmarks/draw_profiles.py`, which drew the random profiles in `benchmarks/scenarios/`."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("draw_profiles", ROOT / "benchmarks" / "draw_profiles.py")
-    draw = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(draw)
+    draw = benchmark_script("draw_profiles")
     args = ["--prefix", "p", "--seed", "3", "--count", "4", "--vx", "-0.2", "0.5", "--vy", "-0.2", "0.2",
             "--heading-step", "0.3"]
     for out in ("a", "b"):
