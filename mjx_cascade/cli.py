@@ -127,7 +127,9 @@ def cmd_info(args: argparse.Namespace) -> int:
         return 0
     cfg = config_lib.robot_config(args.robot)
     definition = robots.get(args.robot)
-    model = robots.model_path(definition, args.model) if (args.model or not definition.model_required) else None
+    # the shapes need no model file, so a robot without a default model reports one only when asked for
+    asked = robots.requested_model(definition, args.model)
+    model = robots.model_path(definition, asked) if (asked or not definition.model_required) else None
     actions, params = policy_shape(definition, cfg)
     _emit({
         "robot": args.robot,
@@ -139,7 +141,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         "dt": cfg.physics.dt,
         "step_time": cfg.gait.step_time,
         "population": cfg.es.population,
-        "model": str(model) if model else "default",
+        "model": str(model) if model else (None if definition.model_required else "default"),
     }, args.json)
     return 0
 

@@ -49,6 +49,18 @@ def test_info_reports_table_1(robot, expect, model):
     assert info["robot"] == robot and info["dt"] == config.robot_config(robot).physics.dt and len(info["learned_joints"]) == expect[1] // 4
 
 
+def test_info_names_the_model_from_the_environment_and_none_when_a_required_one_is_missing():
+    given = cli("info", "--robot", "digit", "--json", env={"DIGIT_MODEL_PATH": str(DIGIT_MODEL)})
+    assert given.returncode == 0, given.stderr
+    assert json.loads(given.stdout)["model"] == str(DIGIT_MODEL)
+    missing = {k: v for k, v in os.environ.items() if k != "DIGIT_MODEL_PATH"}
+    none = subprocess.run([sys.executable, "-m", "mjx_cascade.cli", "info", "--robot", "digit", "--json"],
+                          capture_output=True, text=True, timeout=600, env=missing, cwd=ROOT)
+    assert none.returncode == 0, none.stderr
+    assert json.loads(none.stdout)["model"] is None  # Digit has no default model to name
+    assert json.loads(cli("info", "--robot", "cassie", "--json").stdout)["model"] == "default"
+
+
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
     """Two generations, then a rerun of the same command with --generations 3 (a resume)."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from mjx_cascade.config import ROBOTS, ConfigError
-from mjx_cascade.robots.base import Robot, RobotDefinition, build, model_path
+from mjx_cascade.robots.base import Robot, RobotDefinition, build, model_path, requested_model
 
 
 def get(name: str) -> RobotDefinition:
@@ -18,4 +18,4 @@ def get(name: str) -> RobotDefinition:
     raise ConfigError(f"unknown robot {name!r}; choose from {', '.join(ROBOTS)}")
 
 
-__all__ = ["Robot", "RobotDefinition", "build", "get", "model_path"]
+__all__ = ["Robot", "RobotDefinition", "build", "get", "model_path", "requested_model"]

@@ -106,11 +106,16 @@ class Robot:
         return [f"{role}_{joint}" for role, joint in self.definition.learned]
 
 
+def requested_model(definition: RobotDefinition, path: str | None) -> str | None:
+    """The model file asked for: `path`, else the robot's environment variable; None if neither."""
+    return path or (os.environ.get(definition.model_env) if definition.model_env else None) or None
+
+
 def model_path(definition: RobotDefinition, path: str | None) -> Path | None:
-    """The model file to load (from `path` or the robot's environment variable), checked to exist,
-    to parse and to have the robot's motors; None means the robot's default model."""
+    """The model file to load (`requested_model`), checked to exist, to parse and to have the
+    robot's motors; None means the robot's default model."""
     d = definition
-    path = path or (os.environ.get(d.model_env) if d.model_env else None)
+    path = requested_model(d, path)
     if not path:
         if d.model_required:
             raise ConfigError(f"the {d.name} robot needs its model file: {d.model_hint}")
