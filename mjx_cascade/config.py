@@ -99,6 +99,10 @@ class RegulatorConfig:
     # (regulators.rate_limit; not in the paper): [m/s^2 for vx and vy, rad/s for the heading];
     # 0, the default, follows every command at once
     command_rate: tuple[float, float] = (0.0, 0.0)
+    # k_height's pelvis height over the ground under the pelvis, extrapolated from the stance foot
+    # along the slope estimate (regulators.ground_rise), instead of over the stance foot: false,
+    # the default, is how configs saved before this setting existed measured it
+    height_over_slope: bool = False
 
 
 @dataclasses.dataclass(frozen=True)

@@ -259,21 +259,27 @@ class Env:
         ref = ref.at[gait.SWING, r.hip_pitch].add(jnp.asarray(r.forward_sign)[swing_leg] * place[0])
         ref = ref.at[gait.SWING, r.hip_roll].add(jnp.asarray(r.lateral_sign)[swing_leg] * place[1])
         ref = ref.at[gait.SWING, r.hip_yaw].add(-jnp.asarray(r.yaw_sign)[swing_leg] * turn)
+        # the terrain slope estimate of Sec. IV-A: the stance foot is taken to lie on the ground
+        ground = c.ground
+        if reg.slope_estimation:
+            a = self.dt / (GROUND_FILTER + self.dt)
+            ground = ground + a * (obs.foot_angles[stance] - ground)
+        c = c.replace(ground=ground)
         if reg.k_height > 0:  # without it the compiled controller is unchanged
-            # over the ground the stance foot stands on, from the foot's position: what a robot
-            # can measure through its leg (it does not know the terrain under its pelvis)
+            # over the stance foot's ground, from the foot's position: what a robot can measure
+            # through its leg (it does not know the terrain under its pelvis)
             leg_height = obs.pos[2] - obs.feet[stance, 2] + self.foot_rest
+            if reg.height_over_slope:  # over the slope estimate's ground under the pelvis
+                # over the foot itself, a downhill stance foot ahead of the pelvis reads as a
+                # pelvis too high, and one behind it as too low
+                offset = features.to_heading_frame(obs.pos[:2] - obs.feet[stance, :2], obs.rpy[2])
+                leg_height = leg_height - regulators.ground_rise(ground * r.slope_sensed, offset)
             lift = regulators.height_fix(leg_height, cfg.rewards.height, reg)
             ref = ref.at[gait.STANCE, r.knee].add(jnp.asarray(r.knee_extension)[stance] * lift)
         ref = gait.role_to_absolute(ref, stance, r.mirror)
         ref_v = gait.role_to_absolute(ref_v, stance, r.mirror)
 
         # foot orientation (Sec. IV-A): one Newton step of decoupled IK per foot, absolute
-        ground = c.ground
-        if reg.slope_estimation:
-            a = self.dt / (GROUND_FILTER + self.dt)
-            ground = ground + a * (obs.foot_angles[stance] - ground)
-        c = c.replace(ground=ground)
         want = jnp.stack([ground, ground])
         want = want.at[stance].add(regulators.stance_foot_tilt(v_bar, cmd_v, reg))
         toe_step = jnp.einsum("lkc,lc->lk", r.toe_pinv, want - obs.foot_angles) * self._side[:, r.toe]

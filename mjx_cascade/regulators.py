@@ -105,6 +105,16 @@ def height_fix(height: Array, height_des: float, cfg: RegulatorConfig) -> Array:
     return cfg.k_height * jnp.clip(height_des - height, -HEIGHT_ERROR_LIMIT, HEIGHT_ERROR_LIMIT)
 
 
+def ground_rise(slope: Array, offset: Array) -> Array:
+    """Height of the estimated ground plane at `offset [2]` (forward, leftward, m, heading frame)
+    from the stance foot, for the terrain `slope [2]` (pitch: positive where the ground falls
+    forward; roll: positive where it rises to the left), rad.
+
+    Lets `height_fix` measure the pelvis over the ground beneath it, not over the stance foot.
+    """
+    return -jnp.tan(slope[0]) * offset[0] + jnp.tan(slope[1]) * offset[1]
+
+
 def heading(yaw: Array, yaw_des: Array, tau: Array, cfg: RegulatorConfig) -> Array:
     """Eq. 24 row 3: swing hip yaw offset, in the direction that turns the pelvis back to `yaw_des`.
 

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjx_cascade import config, gait, regulators
+from mjx_cascade import config, features, gait, regulators
 from mjx_cascade.env import Env
 from mjx_cascade.physics import mjx
 
@@ -107,6 +107,16 @@ def test_height_fix_extends_only_for_a_sag_and_saturates():
     assert float(regulators.height_fix(jnp.float32(0.5), 0.91, reg)) == pytest.approx(2.0 * regulators.HEIGHT_ERROR_LIMIT)
     off = dataclasses.replace(REG, k_height=0.0)
     assert float(regulators.height_fix(jnp.float32(0.5), 0.91, off)) == 0.0
+
+
+def test_ground_rise_follows_the_estimated_plane():
+    """Ground falling forward by 0.1 rad is tan(0.1) per metre lower ahead and higher behind; a
+    roll of 0.1 rad raises it to the left."""
+    t = np.tan(0.1)
+    np.testing.assert_allclose(regulators.ground_rise(jnp.array([0.1, 0.0]), jnp.array([1.0, 0.5])), -t, rtol=1e-6)
+    np.testing.assert_allclose(regulators.ground_rise(jnp.array([0.1, 0.0]), jnp.array([-0.2, 0.0])), 0.2 * t, rtol=1e-6)
+    np.testing.assert_allclose(regulators.ground_rise(jnp.array([0.0, 0.1]), jnp.array([0.3, 0.5])), 0.5 * t, rtol=1e-6)
+    assert float(regulators.ground_rise(jnp.zeros(2), jnp.array([0.3, -0.2]))) == 0.0
 
 
 def test_torso_torque_opposes_tilt():
@@ -233,13 +243,19 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
     np.testing.assert_allclose(np.abs(stance_hips(late)), np.abs(torso), rtol=1e-4)
 
 
-def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing):
+@pytest.fixture(scope="module")
+def height_env(cassie, cassie_pool, standing):
+    """The controller with `k_height` 2, measuring the height over the sloped ground."""
+    return Env(cassie, standing[0].cfg.override(**{"regulators.k_height": 2.0, "regulators.height_over_slope": True}),
+               cassie_pool)
+
+
+def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing, height_env):
     """With `k_height`, a pelvis 5 cm below the desired height over the stance foot's ground turns
     the stance knee by k_height * 0.05 rad the way that lengthens the leg; 0 changes nothing."""
     shipped, data, obs, ctrl = standing
     plain = Env(cassie, shipped.cfg.override(**{"regulators.k_height": 0.0}), cassie_pool)
-    cfg = shipped.cfg.override(**{"regulators.k_height": 2.0})
-    env, r, z = Env(cassie, cfg, cassie_pool), cassie, cfg.rewards.height
+    env, r, z = height_env, cassie, height_env.cfg.rewards.height
 
     def stance_knee(e, height):
         ground = obs.feet[ctrl.stance, 2] - e.foot_rest  # under the stance foot
@@ -262,3 +278,26 @@ def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie
     before = leg_length()
     d.qpos[r.qpos_adr[gait.RIGHT, r.knee]] += dq
     assert leg_length() > before + 0.003  # 6 mm for the 0.1 rad here
+
+
+def test_height_fix_measures_the_pelvis_over_the_sloped_ground_beneath_it(cassie, standing, height_env):
+    """On an estimated slope, the stance knee moves by k_height times the rise of the ground
+    between the stance foot and the pelvis, the way a sag of that much moves it. (The estimate
+    moves 0.5% of the way to the standing foot's angles in the one step taken: rel 2e-2.)"""
+    _, data, obs, ctrl = standing
+    env, r = height_env, cassie
+    obs = obs._replace(pos=obs.pos.at[0].add(-0.25))  # the pelvis well behind its stance foot
+
+    def stance_knee(slope, sag=0.0):
+        u, _, _ = _control(env)(env.init_params, ctrl.replace(ground=jnp.asarray(slope, jnp.float32)),
+                                obs._replace(pos=obs.pos.at[2].add(-sag)), jnp.float32(0.0), jnp.zeros(3))
+        return float(u[gait.RIGHT, r.knee]) / r.kp[r.knee]
+
+    offset = features.to_heading_frame(obs.pos[:2] - obs.feet[gait.RIGHT, :2], obs.rpy[2])
+    assert float(offset[0]) < -0.15
+    rise = float(regulators.ground_rise(jnp.array([0.1, 0.0]), offset))
+    assert rise > 0.01  # downhill, the ground behind the stance foot is higher
+    moved = stance_knee([0.1, 0.0]) - stance_knee([0.0, 0.0])
+    assert abs(moved) == pytest.approx(2.0 * rise, rel=2e-2)
+    sag = stance_knee([0.0, 0.0], sag=rise) - stance_knee([0.0, 0.0])
+    assert moved == pytest.approx(sag, rel=2e-2)  # the same as a pelvis that much lower

@@ -34,6 +34,17 @@ def test_cassie_derived_signs(cassie):
     np.testing.assert_allclose(cassie.toe_jac[..., 0], [[-1.0, 0.0], [-1.0, 0.0]], atol=1e-3)
 
 
+def test_only_a_foot_with_width_reads_the_ground_roll(cassie, digit):
+    """Cassie's foot touches the ground through one capsule along its length, so it lies flat at
+    any ground roll and the slope estimate takes only its pitch; Digit's takes both."""
+    m = cassie.model
+    for foot in cassie.foot_body:
+        geoms = [i for i in range(m.ngeom) if m.geom_bodyid[i] == foot and m.geom_contype[i]]
+        assert [m.geom_type[i] for i in geoms] == [mujoco.mjtGeom.mjGEOM_CAPSULE]
+    np.testing.assert_array_equal(cassie.slope_sensed, [1.0, 0.0])
+    np.testing.assert_array_equal(digit.slope_sensed, [1.0, 1.0])
+
+
 def test_ranges_are_per_joint_or_per_coefficient(cassie):
     assert cassie.learned_low.shape == (6, 4)  # the swing knee's range is given per coefficient
     np.testing.assert_allclose(cassie.learned_low[0], -0.3)  # a single pair applies to every coefficient

@@ -45,6 +45,9 @@ class RobotDefinition:
     feet: tuple[str, str]  # foot bodies (left, right)
     load_spec: Callable[[Path | None], mujoco.MjSpec]  # the robot's MJCF from a checked path, or its default
     nominal: Callable[[mujoco.MjModel], np.ndarray]  # standing qpos of the compiled model
+    # whether the stance foot's roll is the ground's (Sec. IV-A's slope estimate): False for a
+    # line foot, which lies on the ground at any roll
+    foot_senses_roll: bool = True
     model_env: str | None = None  # environment variable naming the model file
     model_required: bool = False  # no default model: the user must supply one
     model_hint: str = ""  # where users get the model, for error messages
@@ -96,6 +99,11 @@ class Robot:
     @property
     def name(self) -> str:
         return self.definition.name
+
+    @property
+    def slope_sensed(self) -> np.ndarray:
+        """[2] 1 for each terrain slope component (pitch, roll) the stance foot measures, else 0."""
+        return np.array([1.0, float(self.definition.foot_senses_roll)], np.float32)
 
     @property
     def num_learned(self) -> int:

@@ -64,6 +64,7 @@ CASSIE = RobotDefinition(
     kd=(4.0, 4.0, 10.0, 20.0, 2.0),
     pelvis="cassie-pelvis",
     feet=("left-foot", "right-foot"),
+    foot_senses_roll=False,  # the foot collides through one capsule along its length: a line foot
     load_spec=load_spec,
     nominal=nominal,
     model_hint="MuJoCo Menagerie's agility_cassie (pip install mujoco-menagerie; offline: MENAGERIE_ROOT)",
