@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from mjx_cascade import config, physics
+from mjx_cascade import config, physics, policy, robots
 from mjx_cascade.env import make_env
 from mjx_cascade.physics import mjx
 
@@ -45,12 +45,13 @@ def best_of(fn, repeats: int = 3) -> float:
     return min(times)
 
 
-def controller_rate(env, batch: int, steps: int) -> float:
-    params = jnp.broadcast_to(env.init_params, (batch,) + env.init_params.shape)
+def controller_rate(env, init_params, batch: int, steps: int) -> float:
+    params = jnp.broadcast_to(init_params, (batch,) + init_params.shape)
     keys = jax.random.split(jax.random.PRNGKey(0), batch)
     cmd = jnp.broadcast_to(jnp.array([0.3, 0.0, 0.0]), (batch, 3))
-    state = jax.jit(jax.vmap(env.reset))(params, keys, cmd)
-    step = jax.vmap(lambda p, s, c: env.step(p, s, c))
+    data = env.data_template(batch)
+    state = jax.jit(jax.vmap(lambda p, k, c: env.reset(p, k, c, data=data)))(params, keys, cmd)
+    step = jax.vmap(lambda p, s, c: env.step(p, s, c)[0])
 
     @jax.jit
     def run(state):
@@ -60,7 +61,7 @@ def controller_rate(env, batch: int, steps: int) -> float:
 
 
 def physics_rate(env, batch: int, steps: int) -> float:
-    data = env.data_template.replace(qpos=jnp.asarray(env.pool_qpos[0]), qvel=jnp.asarray(env.pool_qvel[0]))
+    data = env.data_template(batch).replace(qpos=jnp.asarray(env.pool_qpos[0]), qvel=jnp.asarray(env.pool_qvel[0]))
     data = jax.jit(jax.vmap(lambda _: mjx.forward(env.model, data)))(jnp.arange(batch))
     step = jax.vmap(lambda d: mjx.step(env.model, d))
 
@@ -101,7 +102,7 @@ def peak_memory() -> int | None:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--robot", default="cassie", choices=config.ROBOTS)
+    p.add_argument("--robot", default="cassie", choices=list(config.ROBOTS))
     p.add_argument("--out", required=True)
     p.add_argument("--batch", type=int, nargs="+", default=None)
     p.add_argument("--steps", type=int, default=200)
@@ -112,14 +113,15 @@ def main(argv: list[str] | None = None) -> int:
     gpu = jax.default_backend() == "gpu"
     batches = args.batch or ([256, 1024, 4096, 16384] if gpu else [16, 64, 128])
     impls = args.impl or (["jax", "warp"] if physics.warp_available() else ["jax"])
-    cfg = config.robot_config(args.robot).override(**dict(item.split("=", 1) for item in args.set))
+    cfg = config.robot_config(args.robot).override(**config.parse_assignments(args.set))
+    network = policy.for_controller(cfg, len(robots.get(args.robot).learned), jax.random.PRNGKey(cfg.seed))
     result = {"device": jax.devices()[0].device_kind, "backend": jax.default_backend(), "robot": args.robot,
               "dt": cfg.physics.dt, "steps": args.steps, "rows": []}
     for impl in impls:
         for batch in batches:
-            env = make_env(cfg.override(**{"physics.impl": impl}), batch=batch)
+            env = make_env(cfg.override(**{"physics.impl": impl}), network.apply)
             row = {"impl": impl, "batch": batch,
-                   "controller_steps_per_s": controller_rate(env, batch, args.steps),
+                   "controller_steps_per_s": controller_rate(env, network.init_params, batch, args.steps),
                    "physics_steps_per_s": physics_rate(env, batch, args.steps),
                    "peak_memory_bytes": peak_memory()}
             result["rows"].append(row)

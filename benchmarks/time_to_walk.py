@@ -4,11 +4,11 @@
         [--max-generations N] [--max-minutes M] [--scenario FILE ...] [--dt DT] [--set KEY=VALUE ...]
 
 Trains with the robot's shipped config (plus `--set` overrides) exactly as `mjx-cascade train`
-does, and every `--check-every` generations runs the ES mean through each scenario on the same
-device (`evaluate.Runner`: all scenarios of a terrain in one vmapped call, compiled once, at
-the bar's time step `--dt`), judging it with
-`evaluate.tracking_metrics` from the recorded trajectory alone. It stops at the first check that
-passes every scenario, or at the limits, and writes
+does (`train.drive`), and every `--check-every` generations runs the ES mean through each
+scenario on the same device (`evaluate.Runner`: the scenarios in one batch through the same
+simulator, compiled once, at the bar's time step `--dt`), judging it with `judge.walking` from the
+recorded trajectory alone. It stops at the first check that passes every scenario, or at the
+limits, and writes
 
     {"device", "backend", "impl", "robot", "wall_clock_s", "check_s", "physics_steps",
      "generations", "passed", "checks": [...], "config": {...}}
@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import _xla, config, evaluate, scenario, train
+from mjx_cascade import _xla, config, evaluate, judge, scenario, train
 
 ROOT = Path(__file__).resolve().parents[1]
 # the walking bar's kind of profile: two hand-made and ten random 20-s ones, all flat: one batch
@@ -43,7 +43,7 @@ def check(batches: list[evaluate.Runner], params: np.ndarray) -> dict:
     results = {}
     for run in batches:
         for s, traj in zip(run.scenarios, run(params)):
-            m = evaluate.tracking_metrics(traj)
+            m = judge.walking(traj)
             results[s.name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
                                "segments": [seg for seg in m["segments"] if "within_bounds" in seg]}
     return results
@@ -51,45 +51,45 @@ def check(batches: list[evaluate.Runner], params: np.ndarray) -> dict:
 
 def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: float, check_every: int,
                  max_generations: int, max_seconds: float, log=print) -> dict:
-    eval_cfg = cfg.override(**{"physics.dt": dt})
-    checks_on = evaluate.runners(eval_cfg, scenarios)  # evaluation setup, not timed
+    checks_on = evaluate.runners(cfg.override(**{"physics.dt": dt}), scenarios)  # evaluation setup, not timed
     start = time.perf_counter()
     trainer = train.setup(cfg)
-    state, per_call = trainer.state, cfg.train.generations_per_call
-    compiled = trainer.run.lower(state, jnp.int32(per_call)).compile()
+    trainer.run = trainer.run.lower(trainer.state, jnp.int32(cfg.train.generations_per_call)).compile()
     log(f"compiled in {time.perf_counter() - start:.1f} s ({trainer.env.impl}, population {cfg.es.population})")
-    check_s, physics_steps, generation, checks, passed = 0.0, 0.0, 0, [], False
-    while generation < max_generations and time.perf_counter() - start - check_s < max_seconds:
-        n = min(per_call, check_every - generation % check_every, max_generations - generation)
-        state, metrics = compiled(state, jnp.int32(n))
-        metrics = jax.device_get(metrics)
-        physics_steps += float(np.sum(metrics["physics_steps"][:n]))
-        generation += n
-        if generation % check_every and generation < max_generations:
-            continue
+    books = {"check_s": 0.0, "physics_steps": 0.0, "checks": []}
+
+    def training_s():
+        return time.perf_counter() - start - books["check_s"]
+
+    def on_call(state, rows, seconds):
+        books["physics_steps"] += sum(r["physics_steps"] for r in rows)
+        generation = rows[-1]["generation"]
+        if generation % check_every and generation < max_generations and training_s() < max_seconds:
+            return False
         t_check = time.perf_counter()
         results = check(checks_on, np.asarray(jax.device_get(state.mean)))
-        check_s += time.perf_counter() - t_check
+        books["check_s"] += time.perf_counter() - t_check
         passed = all(r["passed"] for r in results.values())
-        wall = time.perf_counter() - start - check_s
-        checks.append({"generation": generation, "wall_clock_s": wall, "physics_steps": physics_steps,
-                       "fitness_mean": float(metrics["fitness_mean"][n - 1]), "passed": passed,
-                       "scenarios": results})
-        log(f"generation {generation}: {wall:.0f} s, fitness {checks[-1]['fitness_mean']:.3f}, "
+        books["checks"].append({"generation": generation, "wall_clock_s": training_s(),
+                                "physics_steps": books["physics_steps"], "fitness_mean": rows[-1]["fitness_mean"],
+                                "passed": passed, "scenarios": results})
+        log(f"generation {generation}: {training_s():.0f} s, fitness {rows[-1]['fitness_mean']:.3f}, "
             + ", ".join(f"{k} {'passed' if r['passed'] else ('fell' if r['fell'] else 'failed')}"
                         for k, r in results.items()))
-        if passed:
-            break
+        return passed or training_s() >= max_seconds
+
+    state = train.drive(trainer, trainer.state, max_generations, check_every, on_call)
+    checks = books["checks"]
     return {
         "device": jax.devices()[0].device_kind,
         "backend": jax.default_backend(),
         "impl": trainer.env.impl,
         "robot": cfg.robot,
-        "wall_clock_s": time.perf_counter() - start - check_s,
-        "check_s": check_s,
-        "physics_steps": physics_steps,
-        "generations": generation,
-        "passed": passed,
+        "wall_clock_s": training_s(),
+        "check_s": books["check_s"],
+        "physics_steps": books["physics_steps"],
+        "generations": int(state.generation),
+        "passed": bool(checks and checks[-1]["passed"]),
         "eval_dt": dt,
         "checks": checks,
         "config": config.to_dict(cfg),
@@ -98,7 +98,7 @@ def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: flo
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--robot", required=True, choices=["cassie", "digit"])
+    ap.add_argument("--robot", required=True, choices=list(config.ROBOTS))
     ap.add_argument("--out", required=True)
     ap.add_argument("--check-every", type=int, default=20, help="generations between checks of the bar")
     ap.add_argument("--max-generations", type=int, default=2000)

@@ -1,5 +1,5 @@
-"""Checkpoints with orbax: the ES state (parameters, optimiser, sigma, learning rate, RNG key,
-generation) plus a JSON record of what produced it.
+"""Checkpoints with orbax: the ES state (parameters, optimiser, generation, the run's key) plus a
+JSON record of what produced it.
 
 Orbax writes each step to a temporary directory and renames it when complete, so a process
 killed mid-write leaves the previous checkpoint as the latest one.
@@ -8,7 +8,6 @@ killed mid-write leaves the previous checkpoint as the latest one.
 from __future__ import annotations
 
 import hashlib
-import json
 import logging
 from pathlib import Path
 from typing import Any
@@ -21,7 +20,8 @@ from mjx_cascade.config import ConfigError
 from mjx_cascade.policy import flat_bytes
 
 logging.getLogger("absl").setLevel(logging.WARNING)
-FORMAT = "mjx_cascade-checkpoint-1"
+FORMAT = "mjx_cascade-checkpoint-2"
+READABLE = ("mjx_cascade-checkpoint-1", FORMAT)  # format 1 held sigma and the learning rate in the state
 
 
 def params_sha256(flat: Any) -> str:
@@ -52,11 +52,8 @@ def is_checkpoint_dir(path: Path) -> bool:
 
 
 def read(path: str | Path) -> tuple[dict, np.ndarray]:
-    """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`),
-    or of an exported policy `NAME.npz` with its `NAME.json` beside it (the shipped format)."""
+    """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`)."""
     path = Path(path).absolute()  # orbax finds no array metadata under a relative path
-    if path.suffix == ".npz":
-        return _read_exported(path)
     if (path / "checkpoints").is_dir():
         path = path / "checkpoints"
     if not is_checkpoint_dir(path):
@@ -68,24 +65,9 @@ def read(path: str | Path) -> tuple[dict, np.ndarray]:
         state = _read_numpy(path / str(step) / "state")
     except Exception as e:  # orbax raises many kinds for a damaged or foreign directory
         raise ConfigError(f"{path} holds no readable checkpoint ({type(e).__name__})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+    if not isinstance(meta, dict) or meta.get("format") not in READABLE:
         raise ConfigError(f"{path} is not an mjx_cascade checkpoint")
     return meta, np.asarray(state["mean"], dtype=np.float32)
-
-
-def _read_exported(path: Path) -> tuple[dict, np.ndarray]:
-    meta_path = path.with_suffix(".json")
-    if not (path.is_file() and meta_path.is_file()):
-        raise ConfigError(f"{path} needs {meta_path.name} beside it (an exported policy is a .npz and a .json)")
-    try:
-        meta = json.loads(meta_path.read_text())
-        with np.load(path) as f:
-            params = np.asarray(f["params"], dtype=np.float32)
-    except (OSError, ValueError, KeyError) as e:
-        raise ConfigError(f"{path} holds no readable policy ({type(e).__name__})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise ConfigError(f"{meta_path} is not an mjx_cascade policy")
-    return meta, params
 
 
 def _read_numpy(path: Path) -> dict:
@@ -108,10 +90,17 @@ def check_robot(meta: dict, robot: str) -> None:
         raise ConfigError(f"the checkpoint is for robot {meta.get('robot')!r}, not {robot!r}")
 
 
-def check_compatible(meta: dict, robot: str, num_params: int, action_dim: int) -> None:
-    """A checkpoint for another robot or policy shape cannot be resumed here."""
+def check_compatible(meta: dict, robot: str, num_params: int) -> None:
+    """A policy for another robot or network shape cannot be trained on here."""
     check_robot(meta, robot)
-    if meta.get("policy_params") != num_params or meta.get("action_dim") != action_dim:
-        raise ConfigError(
-            f"the checkpoint's policy has {meta.get('policy_params')} parameters and {meta.get('action_dim')} "
-            f"actions; this config needs {num_params} and {action_dim}")
+    if meta.get("policy_params") != num_params:
+        raise ConfigError(f"the checkpoint's policy has {meta.get('policy_params')} parameters; "
+                          f"this config needs {num_params}")
+
+
+def check_resumable(meta: dict, robot: str, num_params: int) -> None:
+    """Only a checkpoint of this version, robot and network shape resumes."""
+    check_compatible(meta, robot, num_params)
+    if meta.get("format") != FORMAT:
+        raise ConfigError("the checkpoint was written by an earlier mjx_cascade and cannot be resumed; "
+                          "warm-start a new run from it with --init")

@@ -1,4 +1,4 @@
-"""`mjx-cascade`: info, train, eval and robustness from the command line.
+"""`mjx-cascade`: info, train, eval, robustness and revise from the command line.
 
 The command line only parses and validates; every command calls the library functions that
 notebooks and tests call. Bad input ends with one line on stderr and exit status 2, before
@@ -40,63 +40,90 @@ def main(argv: list[str] | None = None) -> int:
 def build_parser() -> Parser:
     p = Parser(prog="mjx-cascade", description="RL cascade motion policies for bipedal walking on MJX.")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for add in (_add_info, _add_train, _add_eval, _add_robustness, _add_revise):
+        add(sub)
+    return p
 
+
+ROBOT_CHOICES = list(config_lib.ROBOTS)
+MODEL_HELP = "robot MJCF (Digit: digit-v3.xml)"
+POLICY_HELP = "a run's --out, its checkpoints/, or a policy directory (default: the shipped policy)"
+
+
+def _add_info(sub) -> None:
     info = sub.add_parser("info", help="policy and robot facts, or a checkpoint's")
     src = info.add_mutually_exclusive_group(required=True)
-    src.add_argument("--robot", choices=config_lib.ROBOTS)
-    src.add_argument("--checkpoint", metavar="DIR")
-    info.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    src.add_argument("--robot", choices=ROBOT_CHOICES)
+    src.add_argument("--checkpoint", metavar="DIR", help="a run's --out or a policy directory")
+    info.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     info.add_argument("--json", action="store_true")
     info.set_defaults(func=cmd_info)
 
+
+def _add_train(sub) -> None:
     train = sub.add_parser("train", help="train a policy with ES; rerun to resume")
     src = train.add_mutually_exclusive_group(required=True)
     src.add_argument("--config", metavar="FILE", help="YAML config: `robot` plus overrides of its settings")
-    src.add_argument("--robot", choices=config_lib.ROBOTS)
+    src.add_argument("--robot", choices=ROBOT_CHOICES)
     train.add_argument("--out", required=True, metavar="DIR")
-    train.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    train.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     train.add_argument("--init", metavar="POLICY",
-                       help="warm-start from a policy: a run's --out, or an exported NAME.npz with NAME.json "
-                            "beside it (a run that has a checkpoint resumes instead)")
+                       help="warm-start from a policy: a run's --out or a policy directory "
+                            "(a run that has a checkpoint resumes instead)")
     train.add_argument("--generations", type=int)
     train.add_argument("--population", type=int)
     train.add_argument("--episode-seconds", type=float)
     train.add_argument("--seed", type=int)
     train.add_argument("--checkpoint-every", type=int)
-    train.add_argument("--impl", choices=("auto", "jax", "warp"))
+    train.add_argument("--impl", choices=config_lib.IMPLS)
     train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="any config setting, e.g. --set es.sigma=0.05 (repeatable)")
+    train.add_argument("--accept-changes", action="store_true",
+                       help="resume a run whose config differs from its checkpoint's (the change is recorded)")
     train.add_argument("--no-progress", action="store_true")
     train.set_defaults(func=cmd_train)
 
+
+def _add_simulation_args(parser: argparse.ArgumentParser) -> None:
+    """The policy, model, output and physics options `eval` and `robustness` share."""
+    parser.add_argument("--robot", required=True, choices=ROBOT_CHOICES)
+    parser.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
+    parser.add_argument("--model", metavar="PATH", help=MODEL_HELP)
+    parser.add_argument("--out", required=True, metavar="DIR")
+    parser.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
+    parser.add_argument("--impl", choices=config_lib.IMPLS)
+    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="change a controller or physics setting of the policy's config (gait.*, "
+                             "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
+
+
+def _add_eval(sub) -> None:
     ev = sub.add_parser("eval", help="run a scenario with a trained policy")
-    ev.add_argument("--robot", required=True, choices=config_lib.ROBOTS)
-    ev.add_argument("--checkpoint", metavar="DIR", help="a run's --out or checkpoints/ (default: the shipped policy)")
-    ev.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
+    _add_simulation_args(ev)
     ev.add_argument("--scenario", required=True, nargs="+", metavar="FILE",
-                    help="one or more; several run in one vmapped call and write into --out/<name>/")
-    ev.add_argument("--out", required=True, metavar="DIR")
-    ev.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
-    ev.add_argument("--impl", choices=("auto", "jax", "warp"))
-    ev.add_argument("--json", action="store_true")
+                    help="one or more; several run in one batch and write into --out/<name>/")
     ev.add_argument("--no-video", action="store_true", help="skip rendering video.gif")
-    _controller_settings_arg(ev)
     ev.set_defaults(func=cmd_eval)
 
+
+def _add_robustness(sub) -> None:
     rob = sub.add_parser("robustness", help="success rates against pushes, slopes, rough ground and mass error")
-    rob.add_argument("--robot", required=True, choices=config_lib.ROBOTS)
-    rob.add_argument("--checkpoint", metavar="DIR", help="a run's --out or checkpoints/ (default: the shipped policy)")
-    rob.add_argument("--model", metavar="PATH", help="robot MJCF (Digit: digit-v3.xml)")
-    rob.add_argument("--out", required=True, metavar="DIR")
+    _add_simulation_args(rob)
     rob.add_argument("--axes", nargs="+", metavar="AXIS", help="any of push slope rough mass (default: all)")
     rob.add_argument("--trials", type=int, help="trials per cell (default 10)")
     rob.add_argument("--seconds", type=float, help="length of each trial, s (default 10)")
-    rob.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
-    rob.add_argument("--impl", choices=("auto", "jax", "warp"))
-    _controller_settings_arg(rob)
-    rob.add_argument("--json", action="store_true")
     rob.set_defaults(func=cmd_robustness)
-    return p
+
+
+def _add_revise(sub) -> None:
+    rev = sub.add_parser("revise", help="record a controller setting changed after training, with its reason")
+    rev.add_argument("--policy", required=True, metavar="DIR", help="a policy directory (params.npz, record.json)")
+    rev.add_argument("--set", action="append", required=True, metavar="KEY=VALUE",
+                     help="the controller setting the policy runs with from now on (repeatable)")
+    rev.add_argument("--reason", required=True, help="why, with the evidence")
+    rev.add_argument("--date", help="when the change was decided (default: today)")
+    rev.set_defaults(func=cmd_revise)
 
 
 def _emit(payload: dict, as_json: bool) -> None:
@@ -108,10 +135,10 @@ def _emit(payload: dict, as_json: bool) -> None:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
-    from mjx_cascade import checkpoint, robots
+    from mjx_cascade import checkpoint, policies, robots
 
     if args.checkpoint:
-        meta, params = checkpoint.read(args.checkpoint)
+        meta, params = policies.read(args.checkpoint)
         _emit({
             "robot": meta["robot"],
             "generation": meta["generation"],
@@ -125,12 +152,14 @@ def cmd_info(args: argparse.Namespace) -> int:
             "impl": meta["impl"],
         }, args.json)
         return 0
+    from mjx_cascade import policy
+
     cfg = config_lib.robot_config(args.robot)
     definition = robots.get(args.robot)
     # the shapes need no model file, so a robot without a default model reports one only when asked for
     asked = robots.requested_model(definition, args.model)
     model = robots.model_path(definition, asked) if (asked or not definition.model_required) else None
-    actions, params = policy_shape(definition, cfg)
+    actions, params = policy.size(cfg, len(definition.learned))
     _emit({
         "robot": args.robot,
         "state_dim": 6,
@@ -146,21 +175,6 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _controller_settings_arg(parser: argparse.ArgumentParser) -> None:
-    """`--set KEY=VALUE` of `eval` and `robustness` (`evaluate.check_controller_settings`)."""
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="change a controller or physics setting of the policy's config (gait.*, "
-                             "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
-
-
-def policy_shape(definition, cfg: config_lib.Config) -> tuple[int, int]:
-    """`(actions, parameters)` of the robot's motion policy under `cfg` (Table 1), without building anything."""
-    from mjx_cascade import policy
-
-    actions = policy.action_dim(len(definition.learned), cfg.gait.bezier_order)
-    return actions, policy.param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units)
-
-
 def training_config(args: argparse.Namespace) -> config_lib.Config:
     cfg = config_lib.load(args.config) if args.config else config_lib.robot_config(args.robot)
     overrides = {}
@@ -174,26 +188,19 @@ def training_config(args: argparse.Namespace) -> config_lib.Config:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from mjx_cascade import _xla, checkpoint, robots
+    from mjx_cascade import _xla, physics, robots, train
 
     cfg = training_config(args)
-    definition = robots.get(cfg.robot)
-    model = robots.model_path(definition, args.model)
+    model = robots.model_path(robots.get(cfg.robot), args.model)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} exists and is not a directory")
-    if (out / "checkpoints").is_dir() and checkpoint.is_checkpoint_dir(out / "checkpoints"):
-        meta, _ = checkpoint.read(out)
-        actions, params = policy_shape(definition, cfg)
-        checkpoint.check_compatible(meta, cfg.robot, params, actions)
-    from mjx_cascade import physics
-
+    train.check_resume(cfg, out, args.accept_changes)  # before the slow start: a refusal is at once
     physics.resolve_impl(cfg.physics.impl)  # an impossible --impl is refused before anything is written
     _xla.enable_compilation_cache()
-    from mjx_cascade import train
-
     summary = train.train(cfg, out, model_path=str(model) if model else None,
-                          progress=None if not args.no_progress else False, init=args.init)
+                          progress=None if not args.no_progress else False, init=args.init,
+                          accept_changes=args.accept_changes)
     print(json.dumps(summary))
     return 0
 
@@ -264,6 +271,17 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     else:
         print(robustness.markdown(results))
         print(f"wrote {out} in {results['wall_clock_s']:.0f} s")
+    return 0
+
+
+def cmd_revise(args: argparse.Namespace) -> int:
+    from mjx_cascade import policies
+
+    directory = Path(args.policy)
+    if not policies.is_policy_dir(directory):
+        raise ConfigError(f"--policy {directory} is not a policy directory (params.npz and record.json)")
+    revision = policies.revise(directory, config_lib.parse_assignments(args.set), args.reason, args.date)
+    print(json.dumps(revision))
     return 0
 
 

@@ -1,8 +1,14 @@
-"""Configuration: every setting of a run, loaded from YAML, overridden, validated.
+"""Configuration: what a policy runs with, and what only its training uses.
 
-The robot configs in `configs/<robot>.yaml` hold the paper's tables (Table 3: ES, Table 4:
-rewards, Table 7: regulator gains) and every other setting. A user config names a `robot`
-and overrides any subset of that robot's config; unknown keys are errors.
+`ControllerConfig` is what a shipped policy runs with: the physics it steps, its gait, the
+policy network's shape and the regulator gains. `Config` adds what only training uses:
+episodes, rewards, termination, randomization, the ES and the training loop. Every setting is
+named by its section and field (`regulators.k_phr`, `es.sigma`) whichever half holds it.
+
+`configs/base.yaml` holds what the robots share (the paper's tables where they apply) and
+`configs/<robot>.yaml` only where that robot differs. Each section checks its own fields when it
+is built, so a bad value fails where it is defined. Saved configs carry a `version`: `migrate`
+turns an older one into the current form, so no field needs a default to keep old files loading.
 """
 
 from __future__ import annotations
@@ -16,9 +22,32 @@ from typing import Any
 
 import yaml
 
+VERSION = 2  # of the saved form (`to_dict`); `migrate` reads every earlier one
+# The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
+ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
+IMPLS = ("auto", "jax", "warp")
+FIRST_SWING = ("random", "command")
+OPTIMIZERS = ("adam", "sgd")
+
 
 class ConfigError(ValueError):
     """A setting is missing, unknown or out of range. The message is one line."""
+
+
+def need(ok: bool, message: str) -> None:
+    """Raise ConfigError(message) unless `ok`."""
+    if not ok:
+        raise ConfigError(message)
+
+
+def _interval(pair: tuple[float, float], name: str, floor: float | None = None, strict: bool = False) -> None:
+    lo, hi = pair
+    bound = "" if floor is None else f"{floor:g} {'<' if strict else '<='} "
+    need(lo <= hi and (floor is None or (lo > floor if strict else lo >= floor)),
+         f"{name} must be [low, high] with {bound}low <= high")
+
+
+# ---------------------------------------------------------------------------------- the controller
 
 
 @dataclasses.dataclass(frozen=True)
@@ -27,22 +56,15 @@ class PhysicsConfig:
     impl: str  # auto: warp on an NVIDIA GPU with mujoco-warp, else jax
     solver_iterations: int
     ls_iterations: int
-    contacts_per_env: int  # warp: contact buffer per environment (feet only collide)
+    contacts_per_env: int  # warp: contact buffer per environment (only the feet collide)
     constraints_per_env: int  # warp: njmax
 
-
-@dataclasses.dataclass(frozen=True)
-class EpisodeConfig:
-    seconds: float
-    vx: tuple[float, float]  # commanded velocities, heading frame, m/s
-    vy: tuple[float, float]
-    yaw: tuple[float, float]  # desired heading relative to the start, rad
-    pool_size: int  # balanced initial states from the standing controller
-    settle_seconds: float
-    steps_per_check: int  # physics steps between checks that every env is done
-    # a second command, drawn like the first, takes over at U(command_change) s (not in the
-    # paper, whose episodes hold one command); [0, 0] (the default) keeps one command
-    command_change: tuple[float, float] = (0.0, 0.0)
+    def __post_init__(self) -> None:
+        need(self.dt > 0, "physics.dt must be positive")
+        need(self.dt <= 0.005, "physics.dt must be at most 0.005 s (the model's springs need small steps)")
+        need(self.impl in IMPLS, f"physics.impl must be one of {', '.join(IMPLS)}")
+        need(min(self.solver_iterations, self.ls_iterations) >= 1, "physics solver iterations must be >= 1")
+        need(min(self.contacts_per_env, self.constraints_per_env) >= 1, "physics warp buffers must be >= 1")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,25 +74,34 @@ class GaitConfig:
     min_phase: float  # a swing-foot touchdown ends the step only after this phase
     max_phase: float  # time-out: the step ends here whatever the contact force
     grf_threshold: float  # N, swing-foot normal force that counts as touchdown
-    action_scale: float  # scales every learned joint's range about its nominal
-    # which foot lifts first from standing (not in the paper): "random" (a fair coin per episode),
-    # or "command": the foot on the side of the commanded sideways velocity (env.first_stance)
-    first_swing: str = "random"
+    action_scale: float  # scales every learned joint's range about its middle
+    first_swing: str  # which foot lifts first from standing: random (a coin) or command (controller.first_stance)
+
+    def __post_init__(self) -> None:
+        need(self.bezier_order >= 2, "gait.bezier_order must be >= 2")
+        need(self.step_time > 0, "gait.step_time must be positive")
+        need(0 < self.min_phase < self.max_phase, "gait needs 0 < min_phase < max_phase")
+        need(self.max_phase >= 1.0, "gait.max_phase must be >= 1 (a step may not time out early)")
+        need(self.grf_threshold > 0, "gait.grf_threshold must be positive")
+        need(self.action_scale > 0, "gait.action_scale must be positive")
+        need(self.first_swing in FIRST_SWING, f"gait.first_swing must be one of {', '.join(FIRST_SWING)}")
 
 
 @dataclasses.dataclass(frozen=True)
 class PolicyConfig:
     hidden_layers: int
     hidden_units: int
-    # the features of a right-stance step are mirrored (lateral components negated) into the
-    # left-stance picture that the role coordinates use (gait.velocity_to_role); false, the
-    # default, is what configs saved before this setting existed did
-    mirror_lateral: bool = False
+    # a right-stance step sees the state mirrored (lateral components negated), as its
+    # coefficients are (eq. 12; gait.velocity_to_role)
+    mirror_lateral: bool
+
+    def __post_init__(self) -> None:
+        need(self.hidden_layers >= 0 and self.hidden_units >= 1, "policy size must be positive")
 
 
 @dataclasses.dataclass(frozen=True)
 class RegulatorConfig:
-    """Sec. IV gains; Table 7 for the torso and swing-leg terms."""
+    """Sec. IV gains (Table 7 for the torso and swing-leg terms) and the regulations added to them."""
 
     k_phr: float  # swing hip roll, P on (v_y - v_y^d)
     k_dhr: float  # swing hip roll, on (v_y - v_y^ls)
@@ -78,8 +109,8 @@ class RegulatorConfig:
     k_dhp: float  # swing hip pitch, on (v_x - v_x^ls)
     k_neutral_x: float  # fraction of Raibert's neutral point v T / 2 added forward (regulators.neutral_point)
     k_neutral_y: float  # and sideways
-    k_ptp: float  # stance toe pitch (Digit only)
-    k_ptr: float  # stance toe roll (Digit only)
+    k_ptp: float  # stance toe pitch (eq. 24 row 6)
+    k_ptr: float  # stance toe roll (eq. 24 row 7)
     k_heading: float  # swing hip yaw per rad of heading error, eq. 24 row 3
     k_p_roll: float  # torso roll PD torque, Sec. IV-B
     k_d_roll: float
@@ -87,22 +118,66 @@ class RegulatorConfig:
     k_d_pitch: float
     blend_phase: float  # swing compensations ramp in over tau in [0, blend_phase]
     k_i_drift: float  # PI drift term beta_x: rad per (m/s) per step
+    k_i_drift_y: float  # beta_y
     drift_limit: float  # |beta| bound, rad
-    slope_estimation: bool  # swing foot parallel to the stance foot (Sec. IV-A)
-    # stance knee extension per m of pelvis height below rewards.height (regulators.height_fix;
-    # not in the paper): 0, the default, leaves the pelvis height to the learned stance knee
-    k_height: float = 0.0
-    # beta_y's own integral gain (regulators.drift_update); 0.05, the default, is the single gain
-    # that configs saved before this setting existed used for both axes
-    k_i_drift_y: float = 0.05
-    # how fast the command the controller follows may move towards the one given
-    # (regulators.rate_limit; not in the paper): [m/s^2 for vx and vy, rad/s for the heading];
-    # 0, the default, follows every command at once
-    command_rate: tuple[float, float] = (0.0, 0.0)
-    # k_height's pelvis height over the ground under the pelvis, extrapolated from the stance foot
-    # along the slope estimate (regulators.ground_rise), instead of over the stance foot: false,
-    # the default, is how configs saved before this setting existed measured it
-    height_over_slope: bool = False
+    height: float  # desired pelvis height q_z^d, m: the height regulation's target and Table 4's
+    k_height: float  # stance knee extension per m of pelvis below `height` (regulators.height_fix); 0: none
+    # the height over the ground under the pelvis, extrapolated from the stance foot along the
+    # slope estimate (regulators.ground_rise), instead of over the stance foot
+    height_over_slope: bool
+    # how fast the followed command moves towards the given one (regulators.rate_limit):
+    # [m/s^2 for vx and vy, rad/s for the heading]; 0 follows at once
+    command_rate: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        need(0 < self.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")
+        need(self.drift_limit >= 0, "regulators.drift_limit must be >= 0")
+        need(self.height > 0, "regulators.height must be positive")
+        need(self.k_height >= 0, "regulators.k_height must be >= 0")
+        need(min(self.command_rate) >= 0, "regulators.command_rate must be >= 0 (0 = no limit)")
+
+
+@dataclasses.dataclass(frozen=True)
+class ControllerConfig:
+    """What a policy runs with: a shipped policy carries it beside its parameters."""
+
+    robot: str
+    physics: PhysicsConfig
+    gait: GaitConfig
+    policy: PolicyConfig
+    regulators: RegulatorConfig
+
+    def __post_init__(self) -> None:
+        need(self.robot in ROBOTS, f"unknown robot {self.robot!r}; choose from {', '.join(ROBOTS)}")
+
+    def override(self, **overrides: Any) -> Any:
+        """A checked copy with dotted-key overrides: `cfg.override(**{"regulators.k_phr": 0.4})`."""
+        return apply_overrides(self, overrides)
+
+
+# ---------------------------------------------------------------------------------- training only
+
+
+@dataclasses.dataclass(frozen=True)
+class EpisodeConfig:
+    seconds: float
+    vx: tuple[float, float]  # commanded velocities, heading frame, m/s, drawn uniformly
+    vy: tuple[float, float]
+    yaw: tuple[float, float]  # desired heading relative to the start, rad
+    pool_size: int  # balanced initial states from the standing controller
+    settle_seconds: float
+    steps_per_check: int  # physics steps between checks that every episode has ended
+    # a second command, drawn like the first, takes over at U(command_change) s; [0, 0]: one command
+    command_change: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        need(self.seconds > 0, "episode.seconds must be positive")
+        for name in ("vx", "vy", "yaw"):
+            _interval(getattr(self, name), f"episode.{name}")
+        need(self.pool_size >= 1, "episode.pool_size must be >= 1")
+        need(self.settle_seconds > 0, "episode.settle_seconds must be positive")
+        need(self.steps_per_check >= 1, "episode.steps_per_check must be >= 1")
+        _interval(self.command_change, "episode.command_change", floor=0.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,14 +197,14 @@ class RewardWeights:
 
 @dataclasses.dataclass(frozen=True)
 class RewardConfig:
-    """Table 4 constants."""
+    """Table 4 constants; q_z^d is `regulators.height`."""
 
     rho_v: float
     epsilon: float
     e_vx: float
     e_vy: float
-    velocity_cap: float  # bound of the in-band velocity reward (see rewards.py)
-    height: float  # q_z^d
+    velocity_cap: float  # bound of the in-band velocity reward (rewards.velocity)
+    velocity_steps: int  # walking steps whose average r_vx, r_vy judge: 1 (the last) or 2 (a stride)
     e_height: float
     rho_d: float
     com_radius: float  # d in Table 4: radius of the admissible CoM region P
@@ -137,7 +212,15 @@ class RewardConfig:
     feet_max: float
     termination_penalty: float  # per second of the episode lost to early termination
     weights: RewardWeights
-    velocity_steps: int = 1  # walking steps whose average velocity r_vx, r_vy judge: 1 (the last) or 2 (a stride)
+
+    def __post_init__(self) -> None:
+        need(self.rho_v > 0 and self.epsilon > 0 and self.rho_d > 0, "rewards.rho_v, epsilon, rho_d must be positive")
+        need(self.e_vx > 0 and self.e_vy > 0 and self.e_height > 0, "rewards error bands must be positive")
+        need(self.velocity_cap >= 1, "rewards.velocity_cap must be >= 1")
+        need(self.velocity_steps in (1, 2), "rewards.velocity_steps must be 1 or 2")
+        need(self.com_radius > 0, "rewards.com_radius must be positive")
+        need(0 <= self.feet_min < self.feet_max, "rewards needs 0 <= feet_min < feet_max")
+        need(self.termination_penalty >= 0, "rewards.termination_penalty must be >= 0")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,26 +234,39 @@ class TerminationConfig:
     feet: tuple[float, float]  # lateral distance between the feet, m
     max_speed: float  # any |qvel| beyond this is diverged physics
 
+    def __post_init__(self) -> None:
+        need(self.height[0] < self.height[1], "termination.height must be [low, high]")
+        need(self.feet[0] < self.feet[1], "termination.feet must be [low, high]")
+        need(min(self.max_tilt, self.max_yaw_error, self.max_rate) > 0, "termination bounds must be positive")
+        need(self.max_speed > 0, "termination.max_speed must be positive")
+
 
 @dataclasses.dataclass(frozen=True)
 class RandomizationConfig:
-    """Table 5, sampled once per episode, and an optional push (not in the paper)."""
+    """Table 5, drawn once per episode, and one push per episode (not in the paper)."""
 
     enabled: bool
     mass: tuple[float, float]
     com: tuple[float, float]
-    # one horizontal push on the pelvis per episode: magnitude U(push_force) N in a uniformly random
-    # direction, for push_seconds, starting at U(push_after) s; [0, 0] (the default) pushes nothing
-    push_force: tuple[float, float] = (0.0, 0.0)
-    push_seconds: float = 0.2
-    push_after: tuple[float, float] = (1.0, 3.0)
-    # a curriculum: the first push_warmup_generations generations train without pushes
-    push_warmup_generations: int = 0
+    # a horizontal push on the pelvis: U(push_force) N in a uniformly random direction for
+    # push_seconds, from U(push_after) s; [0, 0] pushes nothing
+    push_force: tuple[float, float]
+    push_seconds: float
+    push_after: tuple[float, float]
+    push_warmup_generations: int  # a curriculum: the first generations train without pushes
+
+    def __post_init__(self) -> None:
+        _interval(self.mass, "randomization.mass", floor=0.0, strict=True)
+        _interval(self.com, "randomization.com", floor=0.0, strict=True)
+        _interval(self.push_force, "randomization.push_force", floor=0.0)
+        need(self.push_seconds > 0, "randomization.push_seconds must be positive")
+        _interval(self.push_after, "randomization.push_after", floor=0.0)
+        need(self.push_warmup_generations >= 0, "randomization.push_warmup_generations must be >= 0")
 
 
 @dataclasses.dataclass(frozen=True)
 class ESConfig:
-    """Table 3."""
+    """Table 3: sigma and the learning rate decay geometrically to their floors (es.schedule)."""
 
     population: int  # members, antithetic pairs: must be even
     sigma: float
@@ -182,6 +278,16 @@ class ESConfig:
     optimizer: str  # adam | sgd
     weight_decay: float  # L2 on the parameters, added to the ES gradient
 
+    def __post_init__(self) -> None:
+        need(self.population > 0 and self.population % 2 == 0,
+             f"es.population must be a positive even number (antithetic pairs), got {self.population}")
+        need(self.sigma > 0, "es.sigma must be positive")
+        need(self.learning_rate > 0, "es.learning_rate must be positive")
+        need(0 < self.sigma_decay <= 1 and 0 < self.lr_decay <= 1, "es decays must be in (0, 1]")
+        need(self.sigma_min > 0 and self.lr_min > 0, "es.sigma_min and es.lr_min must be positive")
+        need(self.optimizer in OPTIMIZERS, f"es.optimizer must be one of {', '.join(OPTIMIZERS)}")
+        need(self.weight_decay >= 0, "es.weight_decay must be >= 0")
+
 
 @dataclasses.dataclass(frozen=True)
 class TrainConfig:
@@ -189,74 +295,87 @@ class TrainConfig:
     checkpoint_every: int
     generations_per_call: int  # generations per jitted call (one lax.scan)
 
+    def __post_init__(self) -> None:
+        need(self.generations >= 0, "train.generations must be >= 0")
+        need(self.checkpoint_every >= 1, "train.checkpoint_every must be >= 1")
+        need(self.generations_per_call >= 1, "train.generations_per_call must be >= 1")
+
 
 @dataclasses.dataclass(frozen=True)
-class Config:
-    robot: str
+class Config(ControllerConfig):
+    """A training run: the controller it trains, and what only training uses."""
+
     seed: int
-    physics: PhysicsConfig
     episode: EpisodeConfig
-    gait: GaitConfig
-    policy: PolicyConfig
-    regulators: RegulatorConfig
     rewards: RewardConfig
     termination: TerminationConfig
     randomization: RandomizationConfig
     es: ESConfig
     train: TrainConfig
 
-    def override(self, **overrides: Any) -> "Config":
-        """A validated copy with dotted-key overrides: `cfg.override(**{"es.sigma": 0.05})`."""
-        return apply_overrides(self, overrides)
+    @property
+    def controller(self) -> ControllerConfig:
+        return ControllerConfig(**{f.name: getattr(self, f.name) for f in dataclasses.fields(ControllerConfig)})
 
 
-ROBOTS = ("cassie", "digit")
-FIRST_SWING = ("random", "command")  # gait.first_swing
+CONTROLLER_SECTIONS = tuple(f.name for f in dataclasses.fields(ControllerConfig) if f.name != "robot")
+# what a trained policy's parameters fix: the network's shape
+SHAPE_SETTINGS = ("gait.bezier_order", "policy.hidden_layers", "policy.hidden_units")
+
+
+def check_controller_settings(settings: dict) -> None:
+    """Refuse changes to a trained policy outside its controller, or to its network's shape."""
+    for key in settings:
+        need(key.split(".")[0] in CONTROLLER_SECTIONS and key not in SHAPE_SETTINGS,
+             f"a trained policy's settings can change only in {', '.join(s + '.*' for s in CONTROLLER_SECTIONS)} "
+             f"(not {', '.join(SHAPE_SETTINGS)}), got {key!r}")
+
+
+def get(cfg: Any, key: str) -> Any:
+    """The value of dotted `key` in `cfg` (tuples as lists, as saved)."""
+    for part in key.split("."):
+        cfg = getattr(cfg, part)
+    return list(cfg) if isinstance(cfg, tuple) else cfg
+
+
+# ---------------------------------------------------------------------------------- reading and writing
 
 
 def to_dict(cfg: Any) -> dict:
-    """Plain nested dict (tuples as lists) for YAML, JSON and checkpoints."""
+    """Plain nested dict (tuples as lists) with the format `version`, for YAML, JSON and checkpoints."""
 
-    def plain(x):
+    def plain(x: Any) -> Any:
         if dataclasses.is_dataclass(x):
             return {f.name: plain(getattr(x, f.name)) for f in dataclasses.fields(x)}
-        if isinstance(x, tuple):
-            return [plain(v) for v in x]
-        return x
+        return [plain(v) for v in x] if isinstance(x, tuple) else x
 
-    return plain(cfg)
+    return {"version": VERSION, **plain(cfg)}
 
 
-def from_dict(data: dict) -> Config:
-    """A complete config from nested dicts (every key present, none unknown), validated."""
-    cfg = _build(Config, data, "")
-    validate(cfg)
-    return cfg
+def from_dict(data: dict, cls: type = Config) -> Any:
+    """A complete config (every key present, none unknown) from a saved one of any version."""
+    return _build(cls, migrate(data), "")
 
 
 def robot_config(robot: str) -> Config:
-    """The shipped config of a robot (`configs/<robot>.yaml`)."""
-    if robot not in ROBOTS:
-        raise ConfigError(f"unknown robot {robot!r}; choose from {', '.join(ROBOTS)}")
-    text = importlib.resources.files("mjx_cascade.configs").joinpath(f"{robot}.yaml").read_text()
-    return from_dict(yaml.safe_load(text))
+    """The shipped config of a robot: `configs/base.yaml` overridden by `configs/<robot>.yaml`."""
+    need(robot in ROBOTS, f"unknown robot {robot!r}; choose from {', '.join(ROBOTS)}")
+    files = importlib.resources.files("mjx_cascade.configs")
+    data = _deep_merge(yaml.safe_load(files.joinpath("base.yaml").read_text()),
+                       yaml.safe_load(files.joinpath(f"{robot}.yaml").read_text()))
+    return _build(Config, {"robot": robot, **data}, "")
 
 
 def load(path: str | Path) -> Config:
     """A user config file: its `robot` picks the shipped config, its other keys override it."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"config file not found: {path}")
+    need(path.is_file(), f"config file not found: {path}")
     try:
         data = yaml.safe_load(path.read_text()) or {}
     except yaml.YAMLError as e:
         raise ConfigError(f"config file {path} is not valid YAML: {str(e).splitlines()[0]}") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"config file {path} must hold a mapping of sections")
-    base = robot_config(str(data.get("robot", "cassie")))
-    cfg = _merge(base, data, "")
-    validate(cfg)
-    return cfg
+    need(isinstance(data, dict), f"config file {path} must hold a mapping of sections")
+    return _merge(robot_config(str(data.get("robot", "cassie"))), data, "")
 
 
 def parse_assignments(items: list[str]) -> dict[str, str]:
@@ -264,13 +383,12 @@ def parse_assignments(items: list[str]) -> dict[str, str]:
     out = {}
     for item in items:
         key, sep, value = item.partition("=")
-        if not sep:
-            raise ConfigError(f"--set needs KEY=VALUE, got {item!r}")
+        need(bool(sep), f"--set needs KEY=VALUE, got {item!r}")
         out[key.strip()] = value
     return out
 
 
-def apply_overrides(cfg: Config, overrides: dict[str, Any]) -> Config:
+def apply_overrides(cfg: Any, overrides: dict[str, Any]) -> Any:
     """Apply `{"section.key": value}` overrides (string values are parsed as YAML)."""
     nested: dict = {}
     for key, value in overrides.items():
@@ -283,150 +401,124 @@ def apply_overrides(cfg: Config, overrides: dict[str, Any]) -> Config:
         parts = key.split(".")
         for part in parts[:-1]:
             node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ConfigError(f"config key {key!r} does not name a setting")
+            need(isinstance(node, dict), f"config key {key!r} does not name a setting")
         node[parts[-1]] = value
-    out = _merge(cfg, nested, "")
-    validate(out)
+    return _merge(cfg, nested, "")
+
+
+def differences(a: Any, b: Any) -> list[str]:
+    """Dotted keys whose values differ between two configs of one class, in field order."""
+    flat_a, flat_b = _flatten(to_dict(a)), _flatten(to_dict(b))
+    return [k for k in flat_a if flat_a[k] != flat_b.get(k)]
+
+
+def _flatten(data: dict, prefix: str = "") -> dict:
+    out = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            out.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
     return out
 
 
-def _check_keys(cls: type, data: Any, prefix: str, complete: bool) -> dict:
-    where = prefix.rstrip(".") or "config"
-    if not isinstance(data, dict):
-        raise ConfigError(f"{where} must be a mapping")
+def _deep_merge(base: dict, top: dict) -> dict:
+    out = dict(base)
+    for key, value in (top or {}).items():
+        out[key] = _deep_merge(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+    return out
+
+
+# ---------------------------------------------------------------------------------- saved versions
+
+
+# Settings added in version 1's lifetime, with the value a saved config without them meant.
+_V1_DEFAULTS = {
+    "episode": {"command_change": [0.0, 0.0]},
+    "gait": {"first_swing": "random"},
+    "policy": {"mirror_lateral": False},
+    "regulators": {"k_height": 0.0, "k_i_drift_y": 0.05, "command_rate": [0.0, 0.0], "height_over_slope": False},
+    "rewards": {"velocity_steps": 1},
+    "randomization": {"push_force": [0.0, 0.0], "push_seconds": 0.2, "push_after": [1.0, 3.0],
+                      "push_warmup_generations": 0},
+}
+
+
+def migrate(data: dict) -> dict:
+    """A saved config of any version, in the current form (without its `version`).
+
+    Version 1 (no `version` key) left out the settings added after a run was saved, meaning the
+    behaviour before them (`_V1_DEFAULTS`); it held the desired pelvis height in `rewards.height`
+    and had `regulators.slope_estimation`, which was always on.
+    """
+    need(isinstance(data, dict), "a saved config must be a mapping")
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    version = data.pop("version", 1)
+    need(version in (1, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
+    if version == 1:
+        for section, defaults in _V1_DEFAULTS.items():
+            data[section] = {**defaults, **data.get(section, {})}
+        need(data["regulators"].pop("slope_estimation", True) is True,
+             "a saved config with regulators.slope_estimation false is no longer supported")
+        data["regulators"]["height"] = data["rewards"].pop("height")
+    return data
+
+
+# ---------------------------------------------------------------------------------- typed building
+
+
+def _fields(cls: type, data: Any, prefix: str, complete: bool) -> dict:
+    """`{field: type}` of `cls` after checking `data`'s keys (all of them present if `complete`)."""
+    need(isinstance(data, dict), f"{prefix.rstrip('.') or 'config'} must be a mapping")
     names = [f.name for f in dataclasses.fields(cls)]
     for key in data:
         if key not in names:
             close = [n for n in names if n[:3] == str(key)[:3]]
             hint = f" (did you mean {prefix}{close[0]}?)" if close else ""
             raise ConfigError(f"unknown config key '{prefix}{key}'{hint}")
-    if complete:  # a setting with a default may be absent (configs saved before it existed)
-        required = [f.name for f in dataclasses.fields(cls)
-                    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
-        missing = [n for n in required if n not in data]
-        if missing:
-            raise ConfigError(f"config key '{prefix}{missing[0]}' is missing")
+    missing = [n for n in names if complete and n not in data]
+    need(not missing, f"config key '{prefix}{missing[0] if missing else ''}' is missing")
     return typing.get_type_hints(cls)
 
 
 def _build(cls: type, data: Any, prefix: str) -> Any:
-    hints = _check_keys(cls, data, prefix, complete=True)
-    values = {}
-    for key, value in data.items():
-        if dataclasses.is_dataclass(hints[key]):
-            values[key] = _build(hints[key], value, f"{prefix}{key}.")
-        else:
-            values[key] = _coerce(value, hints[key], f"{prefix}{key}")
-    return cls(**values)
+    hints = _fields(cls, data, prefix, complete=True)
+    return cls(**{key: _value(hints[key], value, f"{prefix}{key}", None) for key, value in data.items()})
 
 
 def _merge(obj: Any, data: Any, prefix: str) -> Any:
-    hints = _check_keys(type(obj), data, prefix, complete=False)
-    changes = {}
-    for key, value in data.items():
-        if dataclasses.is_dataclass(hints[key]):
-            changes[key] = _merge(getattr(obj, key), value, f"{prefix}{key}.")
-        else:
-            changes[key] = _coerce(value, hints[key], f"{prefix}{key}")
+    hints = _fields(type(obj), data, prefix, complete=False)
+    changes = {key: _value(hints[key], value, f"{prefix}{key}", getattr(obj, key)) for key, value in data.items()}
     return dataclasses.replace(obj, **changes)
 
 
+def _value(hint: Any, value: Any, name: str, current: Any) -> Any:
+    """`value` as a `hint`: a section built (or merged into `current`) or a coerced scalar."""
+    if dataclasses.is_dataclass(hint):
+        return _build(hint, value, f"{name}.") if current is None else _merge(current, value, f"{name}.")
+    return _coerce(value, hint, name)
+
+
 def _coerce(value: Any, hint: Any, name: str) -> Any:
-    origin = typing.get_origin(hint)
-    if origin is tuple:
+    if typing.get_origin(hint) is tuple:
         kinds = typing.get_args(hint)
-        if not isinstance(value, (list, tuple)) or len(value) != len(kinds):
-            raise ConfigError(f"{name} must be a list of {len(kinds)} numbers")
+        need(isinstance(value, (list, tuple)) and len(value) == len(kinds), f"{name} must be a list of {len(kinds)} numbers")
         return tuple(_coerce(v, k, name) for v, k in zip(value, kinds))
     if hint is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(f"{name} must be true or false")
-        return value
-    if hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{name} must be an integer")
-        return value
-    if hint is float:
+        need(isinstance(value, bool), f"{name} must be true or false")
+    elif hint is int:
+        need(isinstance(value, int) and not isinstance(value, bool), f"{name} must be an integer")
+    elif hint is str:
+        need(isinstance(value, str), f"{name} must be a string")
+    elif hint is float:
         if isinstance(value, str):
             try:
                 value = float(value)
             except ValueError:
                 raise ConfigError(f"{name} must be a number") from None
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(f"{name} must be a finite number")
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        need(ok, f"{name} must be a finite number")
         return float(value)
-    if hint is str:
-        if not isinstance(value, str):
-            raise ConfigError(f"{name} must be a string")
-        return value
-    raise ConfigError(f"{name}: unsupported setting type {hint}")
-
-
-def validate(cfg: Config) -> None:
-    """Raise ConfigError naming the first setting out of range."""
-
-    def need(ok: bool, msg: str) -> None:
-        if not ok:
-            raise ConfigError(msg)
-
-    need(cfg.robot in ROBOTS, f"unknown robot {cfg.robot!r}; choose from {', '.join(ROBOTS)}")
-    p, e, g, es, t = cfg.physics, cfg.episode, cfg.gait, cfg.es, cfg.train
-    need(p.dt > 0, "physics.dt must be positive")
-    need(p.dt <= 0.005, "physics.dt must be at most 0.005 s (the model's springs need small steps)")
-    need(p.impl in ("auto", "jax", "warp"), "physics.impl must be auto, jax or warp")
-    need(p.solver_iterations >= 1 and p.ls_iterations >= 1, "physics solver iterations must be >= 1")
-    need(p.contacts_per_env >= 1 and p.constraints_per_env >= 1, "physics warp buffers must be >= 1")
-    need(e.seconds > 0, "episode.seconds must be positive")
-    for name in ("vx", "vy", "yaw"):
-        lo, hi = getattr(e, name)
-        need(lo <= hi, f"episode.{name} must be [low, high] with low <= high")
-    need(e.pool_size >= 1, "episode.pool_size must be >= 1")
-    need(e.settle_seconds > 0, "episode.settle_seconds must be positive")
-    need(e.steps_per_check >= 1, "episode.steps_per_check must be >= 1")
-    need(0 <= e.command_change[0] <= e.command_change[1],
-         "episode.command_change must be [low, high] with 0 <= low <= high")
-    need(g.bezier_order >= 2, "gait.bezier_order must be >= 2")
-    need(g.step_time > 0, "gait.step_time must be positive")
-    need(0 < g.min_phase < g.max_phase, "gait needs 0 < min_phase < max_phase")
-    need(g.max_phase >= 1.0, "gait.max_phase must be >= 1 (a step may not time out early)")
-    need(g.grf_threshold > 0, "gait.grf_threshold must be positive")
-    need(g.action_scale > 0, "gait.action_scale must be positive")
-    need(g.first_swing in FIRST_SWING, f"gait.first_swing must be one of {', '.join(FIRST_SWING)}")
-    need(cfg.policy.hidden_layers >= 0 and cfg.policy.hidden_units >= 1, "policy size must be positive")
-    r = cfg.regulators
-    need(0 < r.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")
-    need(r.drift_limit >= 0, "regulators.drift_limit must be >= 0")
-    need(r.k_height >= 0, "regulators.k_height must be >= 0")
-    need(min(r.command_rate) >= 0, "regulators.command_rate must be >= 0 (0 = no limit)")
-    rw = cfg.rewards
-    need(rw.rho_v > 0 and rw.epsilon > 0 and rw.rho_d > 0, "rewards.rho_v, epsilon, rho_d must be positive")
-    need(rw.e_vx > 0 and rw.e_vy > 0 and rw.e_height > 0, "rewards error bands must be positive")
-    need(rw.velocity_cap >= 1, "rewards.velocity_cap must be >= 1")
-    need(rw.velocity_steps in (1, 2), "rewards.velocity_steps must be 1 or 2")
-    need(rw.height > 0 and rw.com_radius > 0, "rewards.height and com_radius must be positive")
-    need(0 <= rw.feet_min < rw.feet_max, "rewards needs 0 <= feet_min < feet_max")
-    need(rw.termination_penalty >= 0, "rewards.termination_penalty must be >= 0")
-    tm = cfg.termination
-    need(tm.height[0] < tm.height[1], "termination.height must be [low, high]")
-    need(tm.feet[0] < tm.feet[1], "termination.feet must be [low, high]")
-    need(tm.max_tilt > 0 and tm.max_yaw_error > 0 and tm.max_rate > 0, "termination bounds must be positive")
-    need(tm.max_speed > 0, "termination.max_speed must be positive")
-    dr = cfg.randomization
-    need(0 < dr.mass[0] <= dr.mass[1], "randomization.mass must be [low, high] with 0 < low <= high")
-    need(0 < dr.com[0] <= dr.com[1], "randomization.com must be [low, high] with 0 < low <= high")
-    need(0 <= dr.push_force[0] <= dr.push_force[1], "randomization.push_force must be [low, high] with 0 <= low <= high")
-    need(dr.push_seconds > 0, "randomization.push_seconds must be positive")
-    need(0 <= dr.push_after[0] <= dr.push_after[1], "randomization.push_after must be [low, high] with 0 <= low <= high")
-    need(dr.push_warmup_generations >= 0, "randomization.push_warmup_generations must be >= 0")
-    need(es.population > 0 and es.population % 2 == 0,
-         f"es.population must be a positive even number (antithetic pairs), got {es.population}")
-    need(es.sigma > 0, "es.sigma must be positive")
-    need(es.learning_rate > 0, "es.learning_rate must be positive")
-    need(0 < es.sigma_decay <= 1 and 0 < es.lr_decay <= 1, "es decays must be in (0, 1]")
-    need(es.sigma_min > 0 and es.lr_min > 0, "es.sigma_min and es.lr_min must be positive")
-    need(es.optimizer in ("adam", "sgd"), "es.optimizer must be adam or sgd")
-    need(es.weight_decay >= 0, "es.weight_decay must be >= 0")
-    need(t.generations >= 0, "train.generations must be >= 0")
-    need(t.checkpoint_every >= 1, "train.checkpoint_every must be >= 1")
-    need(t.generations_per_call >= 1, "train.generations_per_call must be >= 1")
+    else:
+        raise ConfigError(f"{name}: unsupported setting type {hint}")
+    return value

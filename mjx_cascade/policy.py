@@ -7,7 +7,7 @@ turns it back into flax parameters inside the jitted rollout.
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import flax.linen as nn
 import jax
@@ -15,6 +15,7 @@ import jax.numpy as jnp
 from jax import Array
 from jax.flatten_util import ravel_pytree
 
+from mjx_cascade.config import ControllerConfig
 from mjx_cascade.features import STATE_DIM
 
 
@@ -41,17 +42,38 @@ def param_count(action_dim_: int, hidden_layers: int, hidden_units: int) -> int:
     return sum((a + 1) * b for a, b in zip(sizes[:-1], sizes[1:]))
 
 
-def make(action_dim_: int, hidden_layers: int, hidden_units: int, key: Array) -> tuple[MotionPolicy, Array, Callable]:
-    """The module, its initial flat parameter vector and the function that unflattens it."""
+class Network(NamedTuple):
+    """The motion policy as ES sees it: a flat parameter vector and a function of it."""
+
+    module: MotionPolicy
+    init_params: Array  # [D] flax's initialisation, flattened
+    unravel: Callable[[Array], dict]
+
+    def apply(self, flat: Array, s: Array) -> Array:
+        """Actions in (0, 1) for features `s` under flat parameters `flat`."""
+        return self.module.apply(self.unravel(flat), s)
+
+    @property
+    def num_params(self) -> int:
+        return int(self.init_params.shape[0])
+
+
+def make(action_dim_: int, hidden_layers: int, hidden_units: int, key: Array) -> Network:
+    """The network with its initial parameters drawn from `key`."""
     module = MotionPolicy(action_dim_, hidden_layers, hidden_units)
-    params = module.init(key, jnp.zeros((STATE_DIM,)))
-    flat, unravel = ravel_pytree(params)
-    return module, flat, unravel
+    flat, unravel = ravel_pytree(module.init(key, jnp.zeros((STATE_DIM,))))
+    return Network(module, flat, unravel)
 
 
-def apply_flat(module: MotionPolicy, unravel: Callable, flat: Array, s: Array) -> Array:
-    """Actions in (0, 1) for features `s` under flat parameters `flat`."""
-    return module.apply(unravel(flat), s)
+def size(cfg: ControllerConfig, num_learned: int) -> tuple[int, int]:
+    """`(actions, parameters)` of the network for `num_learned` learned joints under `cfg` (Table 1)."""
+    actions = action_dim(num_learned, cfg.gait.bezier_order)
+    return actions, param_count(actions, cfg.policy.hidden_layers, cfg.policy.hidden_units)
+
+
+def for_controller(cfg: ControllerConfig, num_learned: int, key: Array) -> Network:
+    """The network a controller of `num_learned` learned joints needs under `cfg`, drawn from `key`."""
+    return make(size(cfg, num_learned)[0], cfg.policy.hidden_layers, cfg.policy.hidden_units, key)
 
 
 def flat_bytes(flat: Array) -> bytes:

@@ -1,16 +1,11 @@
-"""Domain randomization, Table 5: per-episode link masses and centre-of-mass positions; pushes.
+"""Domain randomization, Table 5: per-episode link masses and centre-of-mass positions.
 
 Each episode scales every body's mass by U(mass) and its centre-of-mass offset by U(com),
 body by body. Under `jax.vmap` the model becomes batched in exactly these two fields; MJX
 recomputes the composite inertias from them at every step.
-
-Pushes (`push`, `push_force`) are not in the paper: one horizontal force on the pelvis per
-episode, of random magnitude, direction and start, when `push_force` allows a non-zero force.
 """
 
 from __future__ import annotations
-
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -43,33 +38,3 @@ def in_axes(model: mjx.Model) -> mjx.Model:
     """`vmap` axes for a batch from `randomize`: 0 on its fields, None elsewhere."""
     axes = jax.tree.map(lambda _: None, model)
     return axes.tree_replace({name: 0 for name in FIELDS})
-
-
-class Push(NamedTuple):
-    force: Array  # [3] N, horizontal
-    start: Array  # first physics step it acts on
-    stop: Array  # first step after it
-
-
-def pushes_enabled(cfg: RandomizationConfig) -> bool:
-    return cfg.push_force[1] > 0.0
-
-
-def random_step(key: Array, window: tuple[float, float], dt: float) -> Array:
-    """The physics step nearest a time drawn uniformly from `window` (s)."""
-    return jnp.round(jax.random.uniform(key, minval=window[0], maxval=window[1]) / dt).astype(jnp.int32)
-
-
-def push(key: Array, cfg: RandomizationConfig, dt: float) -> Push:
-    """One episode's push: magnitude U(push_force), direction U(0, 2 pi), start U(push_after)."""
-    k_mag, k_dir, k_start = jax.random.split(key, 3)
-    magnitude = jax.random.uniform(k_mag, minval=cfg.push_force[0], maxval=cfg.push_force[1])
-    angle = jax.random.uniform(k_dir, maxval=2.0 * jnp.pi)
-    start = random_step(k_start, cfg.push_after, dt)
-    force = magnitude * jnp.stack([jnp.cos(angle), jnp.sin(angle), 0.0])
-    return Push(force, start, start + round(cfg.push_seconds / dt))
-
-
-def push_force(p: Push, t: Array) -> Array:
-    """The force [3] at episode step `t`."""
-    return jnp.where((t >= p.start) & (t < p.stop), p.force, 0.0)

@@ -37,13 +37,13 @@ def velocity(error: Array, band: float, cfg: RewardConfig) -> Array:
     return jnp.where(a <= band, inside, -((a - band) ** 2))
 
 
-def height(z: Array, cfg: RewardConfig) -> Array:
-    """r_h. Printed: max{(q_z / q_z^d)^2, 1} below and max{(q_z^d / q_z)^2, 1} above, both always 1.
+def height(z: Array, zd: float, cfg: RewardConfig) -> Array:
+    """r_h for the desired height `zd` (q_z^d, `regulators.height`). Printed: max{(q_z / q_z^d)^2, 1}
+    below and max{(q_z^d / q_z)^2, 1} above, both always 1.
 
     Implemented: min{(q_z / q_z^d)^2, (q_z^d / q_z)^2} within e_qz of q_z^d (1 at the target,
     smaller either side), -(q_z - q_z^d)^2 outside, as printed.
     """
-    zd = cfg.height
     ratio = jnp.minimum((z / zd) ** 2, (zd / jnp.maximum(z, 1e-6)) ** 2)
     return jnp.where(jnp.abs(z - zd) <= cfg.e_height, ratio, -((z - zd) ** 2))
 
@@ -102,12 +102,12 @@ class RewardInputs(NamedTuple):
     stance_w: Array  # [3] stance foot angular velocity
 
 
-def terms(x: RewardInputs, cfg: RewardConfig) -> Array:
-    """The 9 rewards of eq. 13 in the paper's order (`TERMS`)."""
+def terms(x: RewardInputs, cfg: RewardConfig, height_des: float) -> Array:
+    """The 9 rewards of eq. 13 in the paper's order (`TERMS`); `height_des` is q_z^d."""
     return jnp.stack([
         velocity(x.v_error[0], cfg.e_vx, cfg),
         velocity(x.v_error[1], cfg.e_vy, cfg),
-        height(x.height, cfg),
+        height(x.height, height_des, cfg),
         torque(x.u_normalized),
         com(x.com_distance, cfg),
         orientation(x.rpy_error),
@@ -118,6 +118,7 @@ def terms(x: RewardInputs, cfg: RewardConfig) -> Array:
 
 
 def weights(cfg: RewardConfig) -> Array:
+    """w of eq. 13 in `TERMS`' order."""
     w = cfg.weights
     return jnp.array([getattr(w, name) for name in TERMS], dtype=jnp.float32)
 

@@ -5,13 +5,11 @@ A trial walks at `speed` from standing for `seconds`, with no early termination.
 one cell differ in their Table 5 model perturbation (link masses and centres of mass, drawn
 as in training), their start (pool member, first stance foot) and, for pushes, the push's
 time within one gait cycle: a random gait phase. Rough-ground trials also differ in the
-bumps' seed. Success: no fall (`evaluate.fallen`) and, over the last `judge_seconds`, the
-1-second average heading-frame velocity within `tolerance` m/s mean absolute error of the
-command, in vx and in vy.
+bumps' seed. Success is the robustness bar's (`judge.robust`).
 
-Trials on the plane (pushes, mass) run in one call; trials on height fields (slopes, rough
-ground) in another, each environment with its own row of height-field data
-(`scene.compile_model` with a list of terrains).
+Trials run through the one simulator (`rollout.simulate`): those on the plane (pushes, mass) in
+one call, those on height fields (slopes, rough ground) in another, each environment with its
+own row of height-field data (`world.terrains`).
 """
 
 from __future__ import annotations
@@ -26,13 +24,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import plots, randomization
+from mjx_cascade import judge, plots, policy, randomization, robots, rollout, world
 from mjx_cascade.config import Config, ConfigError
 from mjx_cascade.env import Env, make_env
-from mjx_cascade.evaluate import RECORD_PERIOD, fallen, joint_layout, load_policy, policy_record
+from mjx_cascade.evaluate import RECORD_PERIOD, joint_layout, load_policy, policy_record
 from mjx_cascade.physics import resolve_impl
 from mjx_cascade.robots import scene
-from mjx_cascade.trajectory import heading_velocity, moving_average
 
 AXES = ("push", "slope", "rough", "mass")
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
@@ -52,8 +49,7 @@ class Sweep:
     slopes: tuple[float, ...] = (-11.0, -8.0, -5.0, -2.0, 0.0, 2.0, 5.0, 8.0, 11.0)
     roughness: tuple[float, ...] = (0.0, 0.01, 0.02, 0.03, 0.04)
     mass_scales: tuple[float, ...] = (0.8, 0.85, 0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2)
-    judge_seconds: float = 3.0
-    tolerance: float = 0.15  # m/s
+    bar: judge.RobustnessBar = judge.ROBUSTNESS
     seed: int = 0
 
     def __post_init__(self):
@@ -62,7 +58,7 @@ class Sweep:
             raise ConfigError(f"unknown sweep axis {unknown[0] if unknown else None!r}; choose from {', '.join(AXES)}")
         if self.trials < 1:
             raise ConfigError("trials must be at least 1")
-        if not self.judge_seconds < self.seconds:
+        if not self.bar.judge_seconds < self.seconds:
             raise ConfigError("seconds must exceed judge_seconds")
 
 
@@ -99,9 +95,8 @@ def trials(sweep: Sweep, step_time: float) -> Trials:
                   np.array(force), np.array(mass), list(terrain))
 
 
-def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep, hfields: np.ndarray | None = None,
-             index: np.ndarray | None = None) -> dict:
-    """Run trials `t` in one jitted call; `hfields [L, n]` and `index [B]` give each its terrain.
+def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep) -> dict:
+    """Run trials `t` in one jitted call, each on its own terrain (the env's model holds them all).
 
     Returns `qpos [B, R, nq]`, `qvel [B, R, nv]`, `ground [B, R]` recorded every 10 ms and the
     record times `t [R]`.
@@ -110,53 +105,22 @@ def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep, hfields: np.
     every = max(1, int(RECORD_PERIOD / dt + 1e-9))
     records = int(np.ceil(sweep.seconds / (every * dt)))
     rand = cfg.randomization if cfg.randomization.enabled else dataclasses.replace(cfg.randomization, mass=(1.0, 1.0), com=(1.0, 1.0))
-    axes = randomization.in_axes(env.model)
-    if hfields is not None:
-        axes = axes.tree_replace({"hfield_data": 0})
-    dur = sweep.push_duration
+    pushes = [[] if not np.isfinite(pt) else [(pt, sweep.push_duration, f)] for pt, f in zip(t.push_t, t.force)]
+    sched = world.schedule([np.concatenate([[0.0], c])[None] for c in t.cmd], pushes, dt, records * every)
 
     @jax.jit
-    def run(params, cmd, push_t, force, mass, keys, hfields, index):
+    def run(params, keys, mass):
         k_model, k_reset = jax.vmap(jax.random.split)(keys).transpose(1, 0, 2)
         model = randomization.randomize(env.model, k_model, rand)
         model = model.tree_replace({"body_mass": model.body_mass * mass[:, None]})
-        if hfields is not None:
-            model = model.tree_replace({"hfield_data": hfields[index]})
-        state = jax.vmap(env.reset, in_axes=(None, 0, 0, axes))(params, k_reset, cmd, model)
-        step = jax.vmap(env.step, in_axes=(None, 0, 0, 0, axes))
-        observe = jax.vmap(env.observe, in_axes=(0, axes))
-
-        def record(state, r):
-            def physics(state, k):
-                now = (r * every + k) * dt  # the time at the start of this physics step
-                on = (now >= push_t) & (now < push_t + dur)
-                return step(params, state, cmd, jnp.where(on[:, None], force, 0.0), model), None
-
-            state, _ = jax.lax.scan(physics, state, jnp.arange(every))
-            return state, (state.data.qpos, state.data.qvel, observe(state.data, model).ground)
-
-        return jax.lax.scan(record, state, jnp.arange(records))[1]
+        model, axes = world.terrains(env.robot.model, model, t.terrain, randomization.in_axes(env.model))
+        batch = world.World(model, axes, sched)
+        return rollout.simulate(env, params, k_reset, batch, records * every, every, records, rollout.trajectory)[1]
 
     keys = jax.random.split(jax.random.PRNGKey(sweep.seed), len(t.label))
-    f32 = lambda x: None if x is None else jnp.asarray(x, jnp.float32)  # noqa: E731
-    qpos, qvel, ground = jax.device_get(run(jnp.asarray(params), f32(t.cmd), f32(t.push_t), f32(t.force),
-                                            f32(t.mass), keys, f32(hfields), index))
+    qpos, qvel, ground, _ = jax.device_get(run(jnp.asarray(params), keys, jnp.asarray(t.mass, jnp.float32)))
     swap = lambda x: np.swapaxes(np.asarray(x), 0, 1)  # noqa: E731
     return {"t": (np.arange(records) + 1) * every * dt, "qpos": swap(qpos), "qvel": swap(qvel), "ground": swap(ground)}
-
-
-def judge(t: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, ground: np.ndarray, cmd: np.ndarray,
-          sweep: Sweep) -> dict:
-    """One trial's verdict from its recorded trajectory (arrays over time, `cmd [3]` constant)."""
-    fell = fallen(qpos, ground)
-    v, _ = heading_velocity(qpos, qvel)
-    v_avg = moving_average(v, t, 1.0)
-    last = t > t[-1] - sweep.judge_seconds
-    mae = np.mean(np.abs(v_avg[last] - cmd[:2]), axis=0)
-    ok = (not fell.any()) and bool(np.all(mae <= sweep.tolerance))
-    return {"success": ok, "fell": bool(fell.any()),
-            "fall_time": float(t[np.argmax(fell)]) if fell.any() else None,
-            "vx_mae": float(mae[0]), "vy_mae": float(mae[1])}
 
 
 def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = None) -> tuple[dict, dict]:
@@ -166,6 +130,7 @@ def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = 
     `results["trials"]` lists every trial's label, push time and verdict.
     """
     t = trials(sweep, cfg.gait.step_time)
+    network = policy.for_controller(cfg, len(robots.get(cfg.robot).learned), jax.random.PRNGKey(0))
     traj = {}
     for on_plane in (True, False):
         idx = np.nonzero([(tr["type"] == "flat") == on_plane for tr in t.terrain])[0]
@@ -173,18 +138,12 @@ def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = 
             continue
         sub = Trials([t.label[i] for i in idx], t.cmd[idx], t.push_t[idx], t.force[idx], t.mass[idx],
                      [t.terrain[i] for i in idx])
-        if on_plane:
-            env = make_env(cfg, batch=len(idx), model_path=model_path)
-            out = simulate(env, params, sub, sweep)
-        else:
-            kinds = list({str(sorted(tr.items())): tr for tr in sub.terrain}.values())
-            env = make_env(cfg, batch=len(idx), model_path=model_path, terrain=kinds)
-            hfields = np.stack([scene.hfield_data(env.robot.model, k) for k in kinds])
-            index = np.array([kinds.index(tr) for tr in sub.terrain])
-            out = simulate(env, params, sub, sweep, hfields, index)
+        kinds = scene.distinct(sub.terrain)
+        env = make_env(cfg, network.apply, model_path, terrain=kinds[0] if len(kinds) == 1 else kinds)
+        out = simulate(env, params, sub, sweep)
         for j, i in enumerate(idx):
             traj[i] = {k: out[k] if k == "t" else out[k][j] for k in out}
-    verdicts = [judge(traj[i]["t"], traj[i]["qpos"], traj[i]["qvel"], traj[i]["ground"], t.cmd[i], sweep)
+    verdicts = [judge.robust(traj[i]["t"], traj[i]["qpos"], traj[i]["qvel"], traj[i]["ground"], t.cmd[i], sweep.bar)
                 for i in range(len(t.label))]
     return summarize(t, verdicts, sweep), {"trials": t, "traj": traj, **joint_layout(env.robot)}
 
@@ -274,22 +233,22 @@ def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | N
 
     Returns `(results, trajectories)` as `run` does, the results with the run's provenance.
     """
-    cfg, params, meta = load_policy(robot, checkpoint_dir, dt, impl, settings)
+    cfg, found = load_policy(robot, checkpoint_dir, dt, impl, settings)
     start = time.perf_counter()
-    results, sim = run(cfg, params, sweep_cfg, model_path)
+    results, sim = run(cfg, found.params, sweep_cfg, model_path)
     results = {
         "robot": robot,
         "device": jax.devices()[0].device_kind,
         "backend": jax.default_backend(),
         "impl": resolve_impl(cfg.physics.impl),
         "dt": cfg.physics.dt,
-        "policy": policy_record(meta, params, settings),
+        "policy": policy_record(found, settings),
         "wall_clock_s": time.perf_counter() - start,
         **results,
     }
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    title = f"{robot} (generation {meta.get('generation')}, dt {cfg.physics.dt:g} s)"
+    title = f"{robot} (generation {found.generation}, dt {cfg.physics.dt:g} s)"
     plots.robustness(results, UNITS, out / "robustness.png", title=title)
     results["figures"] = ["robustness.png"] + figures(results, sim, out, robot)
     (out / "robustness.json").write_text(json.dumps(results, indent=2) + "\n")
@@ -301,7 +260,7 @@ def report(results: dict) -> str:
     """`robustness.md`: how the sweep ran, then its tables."""
     s = results["sweep"]
     head = (f"# Robustness of {results['robot']}: success rate (no fall, and vx, vy within "
-            f"{s['tolerance']} m/s over the last {s['judge_seconds']:g} s)\n\n"
+            f"{s['bar']['tolerance']} m/s over the last {s['bar']['judge_seconds']:g} s)\n\n"
             f"Policy generation {results['policy']['generation']} (sha256 {results['policy']['params_sha256'][:12]}); "
             f"{s['trials']} trials per cell walking at {s['speed']} m/s for {s['seconds']:g} s; "
             f"pushes of {s['push_duration']} s on the pelvis at a random phase after {s['push_after']:g} s; "

@@ -1,109 +1,132 @@
-"""Episodes: sample a command, a model and (if configured) a push and a later second command,
-start standing, run the controller, score it.
+"""The one simulator: a batch of environments advanced together through a `world.World`, with the
+episode books kept one layer above the environment (Brax's `EpisodeWrapper` idea).
 
-Episodes run in chunks of `steps_per_check` physics steps inside a `lax.while_loop` that
-stops when every episode of the batch is done, so generations whose members all fall early
-cost only as long as their longest survivor.
+`simulate` serves training (stopping once every episode is done), evaluation and the robustness
+sweep (recording the trajectory every chunk of physics steps) alike, and builds the MJX data for
+the batch it runs, so MuJoCo Warp's contact buffers hold every environment's contacts.
+
+The loop over time is written at the batch level (chunks of vmapped steps inside a `scan` or a
+`while_loop`) rather than as a vmapped per-episode loop: JAX's batching of a `while_loop`
+selects the whole carry element by element, which MJX's warp data (contact buffers shared by all
+environments) does not allow.
 """
 
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
+from flax import struct
 from jax import Array
 
-from mjx_cascade import randomization
-from mjx_cascade.config import EpisodeConfig
-from mjx_cascade.env import Env, EnvState
+from mjx_cascade import rewards
+from mjx_cascade.env import Env, EnvState, StepReport
+from mjx_cascade.world import World
 
 
-PUSH_STREAM, COMMAND_STREAM = 3, 4  # fold_in indices of the episode key's push and second-command draws
+class Books(struct.PyTreeNode):
+    """One episode's accounts, per environment of the batch."""
+
+    t: Array  # physics steps scored (taken before the episode was done)
+    done: Array  # stopped scoring: terminated, diverged or out of time
+    terminated: Array  # ended early by eq. 27
+    diverged: Array  # ended by non-finite or impossible physics
+    ret: Array  # weighted reward x seconds, less the termination penalty
+    terms: Array  # [9] unweighted reward terms x seconds (`rewards.TERMS`)
+    walking_steps: Array  # stance switches while the episode was live
+
+    @classmethod
+    def start(cls, batch: int) -> "Books":
+        false, zero = jnp.zeros(batch, bool), jnp.zeros(batch)
+        return cls(t=jnp.zeros(batch, jnp.int32), done=false, terminated=false, diverged=false, ret=zero,
+                   terms=jnp.zeros((batch, len(rewards.TERMS))), walking_steps=jnp.zeros(batch, jnp.int32))
 
 
-class EpisodeResult(NamedTuple):
-    fitness: Array  # normalised return (env.fitness)
-    steps: Array  # physics steps survived
-    walking_steps: Array  # stance switches while the episode ran
-    terminated: Array
-    diverged: Array
-    terms: Array  # [9] unweighted reward terms integrated over the episode
-
-
-def sample_command(key: Array, cfg: EpisodeConfig) -> Array:
-    """[vx, vy, yaw]: velocities in the heading frame, heading relative to the start (uniform)."""
-    lo = jnp.array([cfg.vx[0], cfg.vy[0], cfg.yaw[0]])
-    hi = jnp.array([cfg.vx[1], cfg.vy[1], cfg.yaw[1]])
-    return jax.random.uniform(key, (3,), minval=lo, maxval=hi)
-
-
-def command_changes(cfg: EpisodeConfig) -> bool:
-    return cfg.command_change[1] > 0.0
-
-
-def second_command(key: Array, cfg: EpisodeConfig, dt: float) -> tuple[Array, Array]:
-    """`(command [3], first step it applies to)`: drawn like the first, at U(command_change) s."""
-    k_cmd, k_at = jax.random.split(key)
-    return sample_command(k_cmd, cfg), randomization.random_step(k_at, cfg.command_change, dt)
-
-
-def schedules(env: Env, keys: Array, cmd: Array, generation: Array | int = 0) -> tuple[Callable, Callable]:
-    """Functions of the episodes' step counters `t [B]`: the command `[B, 3]` (`cmd`, then a second
-    one if `episode.command_change` asks) and the push force `[B, 3]` (None without pushes, which
-    leaves the compiled step as it was; zero while `generation`, the generations trained so far,
-    is below `randomization.push_warmup_generations`). Each draw has a key of its own, so
-    enabling one leaves every other draw as it was."""
-    cfg = env.cfg
-    command, force = (lambda t: cmd), (lambda t: None)
-    if command_changes(cfg.episode):
-        k_second = jax.vmap(lambda k: jax.random.fold_in(k, COMMAND_STREAM))(keys)
-        later, change_at = jax.vmap(lambda k: second_command(k, cfg.episode, env.dt))(k_second)
-        command = lambda t: jnp.where((t >= change_at)[:, None], later, cmd)  # noqa: E731
-    if randomization.pushes_enabled(cfg.randomization):
-        k_push = jax.vmap(lambda k: jax.random.fold_in(k, PUSH_STREAM))(keys)
-        pushes = jax.vmap(lambda k: randomization.push(k, cfg.randomization, env.dt))(k_push)
-        force = lambda t: jax.vmap(randomization.push_force)(pushes, t)  # noqa: E731
-        warmup = cfg.randomization.push_warmup_generations
-        if warmup > 0:
-            pushed = force
-            force = lambda t: jnp.where(generation >= warmup, pushed(t), 0.0)  # noqa: E731
-    return command, force
-
-
-def run_episodes(env: Env, params: Array, keys: Array, generation: Array | int = 0) -> EpisodeResult:
-    """Training episodes of a batch of flat policy vectors `params [B, D]`, one key each, in
-    generation `generation` (counted from 0; it only matters for `push_warmup_generations`).
-
-    The loop over time is written at the batch level (a `while_loop` around vmapped chunks)
-    rather than as a vmapped per-episode loop: JAX's batching of a `while_loop` selects the
-    whole carry element by element, which MJX's warp data (contact buffers shared by all
-    environments) does not allow.
-    """
-    cfg = env.cfg
-    k_model, k_cmd, k_reset = jax.vmap(lambda k: jax.random.split(k, 3))(keys).transpose(1, 0, 2)
-    if cfg.randomization.enabled:
-        model = randomization.randomize(env.model, k_model, cfg.randomization)
-        model_axes = randomization.in_axes(env.model)
-    else:
-        model, model_axes = env.model, None
-    cmd = jax.vmap(lambda k: sample_command(k, cfg.episode))(k_cmd)
-    state = jax.vmap(env.reset, in_axes=(0, 0, 0, model_axes))(params, k_reset, cmd, model)
-    command, force = schedules(env, keys, cmd, generation)
-    step = jax.vmap(lambda p, s, c, f, m: env.step(p, s, c, f, model=m), in_axes=(0, 0, 0, 0, model_axes))
-
-    def chunk(s: EnvState) -> EnvState:
-        def body(s, _):
-            return step(params, s, command(s.t), force(s.t), model), None
-
-        return jax.lax.scan(body, s, None, length=cfg.episode.steps_per_check)[0]
-
-    state = jax.lax.while_loop(lambda s: ~jnp.all(s.done), chunk, state)
-    return EpisodeResult(
-        fitness=jax.vmap(env.fitness)(state),
-        steps=state.t,
-        walking_steps=state.ctrl.steps,
-        terminated=state.terminated,
-        diverged=state.diverged,
-        terms=state.terms,
+def keep_books(b: Books, report: StepReport, env: Env, episode_steps: int) -> Books:
+    """The books after one step: only live episodes score; an early end pays the termination
+    penalty for every second it leaves unplayed, so surviving longer always pays."""
+    live, dt = ~b.done, env.dt
+    counted = live & ~report.diverged
+    reward = jnp.where(counted, report.terms @ env.weights * dt, 0.0)
+    t = b.t + live.astype(jnp.int32)
+    lost = (episode_steps - t) * dt
+    penalty = jnp.where(live & report.terminated, env.cfg.rewards.termination_penalty * lost, 0.0)
+    return Books(
+        t=t,
+        done=b.done | report.terminated | (t >= episode_steps),
+        terminated=b.terminated | (live & report.terminated),
+        diverged=b.diverged | (live & report.diverged),
+        ret=b.ret + reward - penalty,
+        terms=b.terms + jnp.where(counted[:, None], report.terms * dt, 0.0),
+        walking_steps=b.walking_steps + (live & report.switched).astype(jnp.int32),
     )
+
+
+def fitness(b: Books, episode_steps: int, dt: float) -> Array:
+    """Episode return per second of the full episode: the normalised mean reward (Fig. 6)."""
+    return b.ret / (episode_steps * dt)
+
+
+Record = Callable[[Env, EnvState, World], Any]  # (env, batched state, world) -> what to keep of it
+
+
+def trajectory(env: Env, state: EnvState, world: World) -> tuple[Array, Array, Array, Array]:
+    """What evaluation keeps of each record: `(qpos, qvel, ground under the pelvis, stance)`."""
+    ground = jax.vmap(env.ground, in_axes=(0, world.axes))(state.data, world.model)
+    return state.data.qpos, state.data.qvel, ground, state.ctrl.stance
+
+
+def simulate(env: Env, params: Array, keys: Array, world: World, episode_steps: int, chunk: int,
+             chunks: int, record: Record | None = None) -> tuple[Books, Any]:
+    """Reset a batch of environments and advance it `chunks` times by `chunk` physics steps, keeping
+    `record(...)` after each chunk; without `record`, stop once every episode is done. Returns
+    `(books, records [chunks, ...] or None)`.
+
+    `params` is one flat policy vector `[D]` for the whole batch, or one per environment `[B, D]`;
+    `keys` one reset key per environment `[B, 2]`, or one `[2]` that starts them all alike.
+    Episodes last `episode_steps` physics steps; their robots simulate on with the batch after.
+    """
+    sched = world.schedule
+    batch = sched.command.shape[0]
+    p_axis = 0 if params.ndim == 2 else None
+    reset = _over(env.reset, (p_axis, 0 if keys.ndim == 2 else None, 0, world.axes, None), batch)
+    step = _over(env.step, (p_axis, 0, 0, 0 if sched.pushes else None, world.axes), batch)
+
+    def run_chunk(i: Array, carry: tuple) -> tuple:
+        def physics(carry, n):
+            state, books = carry
+            state, report = step(params, state, sched.command_at(n), sched.force_at(n), world.model)
+            return (state, keep_books(books, report, env, episode_steps)), None
+
+        return jax.lax.scan(physics, carry, i * chunk + jnp.arange(chunk))[0]
+
+    state = reset(params, keys, sched.command_at(0), world.model, env.data_template(batch))
+    carry = (state, Books.start(batch))
+    if record is None:
+        def more(c):
+            return (c[0] < chunks) & ~jnp.all(c[2].done)
+
+        _, _, books = jax.lax.while_loop(more, lambda c: (c[0] + 1, *run_chunk(c[0], c[1:])), (0, *carry))
+        return books, None
+
+    def recorded(carry, i):
+        carry = run_chunk(i, carry)
+        return carry, record(env, carry[0], world)
+
+    (_, books), records = jax.lax.scan(recorded, carry, jnp.arange(chunks))
+    return books, records
+
+
+def _lone(x: Any, axes: Any) -> Any:
+    """The one element of `x`, batched along `axes` (a pytree of axes, None where it is shared)."""
+    return jax.tree.map(lambda ax, a: a if ax is None else jax.tree.map(lambda leaf: leaf[0], a), axes, x,
+                        is_leaf=lambda ax: ax is None)
+
+
+def _over(fn: Callable, in_axes: tuple, batch: int) -> Callable:
+    """`jax.vmap(fn, in_axes)`; for a batch of one, `fn` itself on the lone element with the batch
+    axis put back on its outputs: one environment's program compiles faster unbatched."""
+    if batch > 1:
+        return jax.vmap(fn, in_axes=in_axes)
+    return lambda *args: jax.tree.map(lambda a: a[None], fn(*map(_lone, args, in_axes)))

@@ -1,10 +1,12 @@
 """Training: ES over MJX episodes, several generations per jitted call, checkpointed and resumable.
 
-One generation (sample the antithetic population, run every member's episode in one
-vmapped call, rank, optax step, decays) is a pure function of the ES state. `lax.scan` runs
-up to `generations_per_call` of them per call, the last ones skipped by `lax.cond` when
-fewer are due, so every call reuses one compiled program. The population axis is sharded
-over every local device. The host only writes metrics and checkpoints between calls.
+One generation (draw the antithetic population, run every member's episode in one vmapped call,
+rank, optax step) is a pure function of the ES state. `lax.scan` runs up to
+`generations_per_call` of them per call, the last ones skipped by `lax.cond` when fewer are due,
+so every call reuses one compiled program. The population axis is sharded over every local
+device. `drive` is the one host loop: it calls the program and hands each call's metrics to a
+callback (the command line's writes metrics and checkpoints; the time-to-walk benchmark checks
+the walking bar).
 """
 
 from __future__ import annotations
@@ -21,18 +23,21 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec
 
-from mjx_cascade import checkpoint, es, plots
-from mjx_cascade.config import Config, ConfigError, to_dict
+from mjx_cascade import checkpoint, episodes, es, plots, policies, policy, rewards, robots
+from mjx_cascade.config import Config, ConfigError, differences, from_dict, get, to_dict
 from mjx_cascade.env import Env, make_env
-from mjx_cascade.rollout import run_episodes
 
 METRICS = "metrics.jsonl"
+# What a resumed run may change without --accept-changes: how far and in what calls it goes,
+# not what it trains (each generation's keys come from its index alone).
+RESUMABLE = ("train.generations", "train.checkpoint_every", "train.generations_per_call")
 
 
 @dataclasses.dataclass
 class Trainer:
     cfg: Config
     env: Env
+    network: policy.Network
     run: Callable  # (ESState, n_active) -> (ESState, metrics [L])
     state: es.ESState
     devices: int
@@ -40,7 +45,7 @@ class Trainer:
 
     @property
     def num_params(self) -> int:
-        return int(self.state.mean.shape[0])
+        return self.network.num_params
 
 
 def population_sharding() -> tuple[NamedSharding, int]:
@@ -49,42 +54,47 @@ def population_sharding() -> tuple[NamedSharding, int]:
     return NamedSharding(mesh, PartitionSpec("pop")), len(devices)
 
 
-def make_generation(env: Env) -> Callable:
+def generation_metrics(res: episodes.EpisodeResult, state: es.ESState, strategy: es.Strategy, env: Env) -> dict:
+    """One generation's figures; `reward/<term>` is each reward term's mean over the live time."""
+    chunk = env.cfg.episode.steps_per_check
+    live_seconds = jnp.sum(res.steps.astype(jnp.float32)) * env.dt
+    terms = jnp.sum(res.terms, axis=0) / jnp.maximum(live_seconds, env.dt)
+    return {
+        "fitness_mean": jnp.mean(res.fitness),
+        "fitness_max": jnp.max(res.fitness),
+        "fitness_min": jnp.min(res.fitness),
+        "sigma": strategy.sigma(state.generation),
+        "learning_rate": strategy.learning_rate(state.generation),
+        "physics_steps": jnp.sum(res.steps.astype(jnp.float32)),
+        "simulated_steps": jnp.ceil(jnp.max(res.steps) / chunk) * chunk * strategy.population,
+        "episode_seconds_mean": jnp.mean(res.steps) * env.dt,
+        "walking_steps_mean": jnp.mean(res.walking_steps),
+        "terminated_fraction": jnp.mean(res.terminated),
+        "diverged": jnp.sum(res.diverged),
+        **{f"reward/{name}": terms[i] for i, name in enumerate(rewards.TERMS)},
+    }
+
+
+def make_generation(env: Env, strategy: es.Strategy) -> Callable:
     """`generation(state) -> (state, metrics)`: one full ES generation, jittable."""
-    cfg = env.cfg
     sharding, _ = population_sharding()
 
     def generation(state: es.ESState):
-        state, noise, members = es.ask(state, cfg.es)
-        pair_keys = jax.random.split(jax.random.fold_in(state.key, 1), cfg.es.population // 2)
+        keys = es.generation_keys(state)
+        noise, members = es.ask(strategy, state, keys[es.NOISE])
+        pair_keys = jax.random.split(keys[es.EPISODES], strategy.population // 2)
         keys = jnp.concatenate([pair_keys, pair_keys])  # both members of a pair face the same episode
         members = jax.lax.with_sharding_constraint(members, sharding)
         keys = jax.lax.with_sharding_constraint(keys, sharding)
-        res = run_episodes(env, members, keys, state.generation)
-        new = es.tell(state, noise, res.fitness, cfg.es)
-        chunk = cfg.episode.steps_per_check
-        iterations = jnp.ceil(jnp.max(res.steps) / chunk)
-        metrics = {
-            "fitness_mean": jnp.mean(res.fitness),
-            "fitness_max": jnp.max(res.fitness),
-            "fitness_min": jnp.min(res.fitness),
-            "sigma": state.sigma,
-            "learning_rate": state.lr,
-            "physics_steps": jnp.sum(res.steps.astype(jnp.float32)),
-            "simulated_steps": iterations * chunk * cfg.es.population,
-            "episode_seconds_mean": jnp.mean(res.steps) * env.dt,
-            "walking_steps_mean": jnp.mean(res.walking_steps),
-            "terminated_fraction": jnp.mean(res.terminated),
-            "diverged": jnp.sum(res.diverged),
-        }
-        return new, metrics
+        res = episodes.run(env, members, keys, state.generation)
+        return es.tell(strategy, state, noise, res.fitness), generation_metrics(res, state, strategy, env)
 
     return generation
 
 
-def make_run(env: Env, per_call: int) -> Callable:
+def make_run(env: Env, strategy: es.Strategy, per_call: int) -> Callable:
     # jitted so that `skip`'s shape query and `lax.cond` share one trace of the generation
-    generation = jax.jit(make_generation(env))
+    generation = jax.jit(make_generation(env, strategy))
 
     def skip(state):
         _, metrics = jax.eval_shape(generation, state)
@@ -100,28 +110,31 @@ def make_run(env: Env, per_call: int) -> Callable:
 
 
 def setup(cfg: Config, model_path: str | None = None, init: str | Path | None = None) -> Trainer:
-    """The trainer at generation 0, or warm-started from the policy at `init` (a checkpoint
-    directory or an exported `.npz`), counting on from that policy's generation."""
+    """The trainer at generation 0, or warm-started from the policy at `init` (a run, or a policy
+    directory), counting on from that policy's generation."""
     sharding, devices = population_sharding()
     if cfg.es.population % devices:
         raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
-    if init is not None:  # read before the (slow) environment is built, so a bad `init` fails at once
-        meta, params = checkpoint.read(init)
-        generation = int(meta["generation"])
-        if generation >= cfg.train.generations:
-            raise ConfigError(f"--init is at generation {generation}; train.generations "
-                              f"({cfg.train.generations}) leaves nothing to train")
-    env = make_env(cfg, batch=cfg.es.population, model_path=model_path)
     key = jax.random.PRNGKey(cfg.seed)
-    if init is None:
-        state, record = es.init(env.init_params, key, cfg.es), None
-    else:
-        checkpoint.check_compatible(meta, cfg.robot, int(env.init_params.shape[0]), env.action_dim)
-        # its own noise stream: the generation-0 key would replay the first run's perturbations
-        state = es.init(jnp.asarray(params), jax.random.fold_in(key, generation), cfg.es, generation)
-        record = {"params_sha256": checkpoint.params_sha256(params), "generation": generation,
-                  "source": str(init)}
-    return Trainer(cfg, env, make_run(env, cfg.train.generations_per_call), replicate(state), devices, record)
+    network = policy.for_controller(cfg, len(robots.get(cfg.robot).learned), key)
+    start = _warm_start(cfg, network, init) if init is not None else None  # before the (slow) environment
+    env = make_env(cfg, network.apply, model_path=model_path)
+    strategy = es.make(cfg.es)
+    params, generation = (network.init_params, 0) if start is None else (jnp.asarray(start[1]), start[0]["generation"])
+    state = es.init(strategy, params, key, generation)
+    record = None if start is None else {"params_sha256": checkpoint.params_sha256(start[1]),
+                                         "generation": generation, "source": str(init)}
+    return Trainer(cfg, env, network, make_run(env, strategy, cfg.train.generations_per_call), replicate(state),
+                   devices, record)
+
+
+def _warm_start(cfg: Config, network: policy.Network, init: str | Path) -> tuple[dict, np.ndarray]:
+    record, params = policies.read(init)
+    checkpoint.check_compatible(record, cfg.robot, network.num_params)
+    if int(record["generation"]) >= cfg.train.generations:
+        raise ConfigError(f"--init is at generation {record['generation']}; train.generations "
+                          f"({cfg.train.generations}) leaves nothing to train")
+    return record, params
 
 
 def replicate(state: es.ESState) -> es.ESState:
@@ -130,13 +143,33 @@ def replicate(state: es.ESState) -> es.ESState:
     return jax.device_put(state, NamedSharding(population_sharding()[0].mesh, PartitionSpec()))
 
 
-def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock: float) -> dict:
+def check_resume(cfg: Config, out: str | Path, accept_changes: bool = False) -> dict | None:
+    """The changes `cfg` makes to the run in `out` (`{key: [saved, new]}`), or None for a new run.
+
+    A resumed run keeps its config: any difference but `RESUMABLE` is refused, naming the first
+    keys, unless `accept_changes`; then the checkpoint records it.
+    """
+    if not checkpoint.is_checkpoint_dir(Path(out) / "checkpoints"):
+        return None
+    meta, _ = checkpoint.read(out)
+    checkpoint.check_resumable(meta, cfg.robot, policy.size(cfg, len(robots.get(cfg.robot).learned))[1])
+    saved = from_dict(meta["config"])
+    changed = [k for k in differences(saved, cfg) if k not in RESUMABLE]
+    if changed and not accept_changes:
+        shown = ", ".join(f"{k} ({get(saved, k)!r} -> {get(cfg, k)!r})" for k in changed[:3])
+        raise ConfigError(f"{out} trained with another config: {shown}{' ...' if len(changed) > 3 else ''}; "
+                          "pass --accept-changes to resume with the new one, or choose another --out")
+    return {k: [get(saved, k), get(cfg, k)] for k in changed}
+
+
+def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock: float, history: list) -> dict:
+    """The checkpoint's record of what produced it."""
     env = trainer.env
     return {
         "robot": trainer.cfg.robot,
         "generation": generation,
         "policy_params": trainer.num_params,
-        "action_dim": env.action_dim,
+        "action_dim": trainer.network.module.action_dim,
         "state_dim": 6,
         "learned_joints": env.robot.learned_names,
         "physics_steps": physics_steps,
@@ -150,7 +183,27 @@ def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock
                            "within floating-point tolerance",
         "config": to_dict(trainer.cfg),
         **({"init": trainer.init} if trainer.init else {}),
+        **({"config_changes": history} if history else {}),
     }
+
+
+def drive(trainer: Trainer, state: es.ESState, target: int, every: int,
+          on_call: Callable[[es.ESState, list[dict], float], bool | None]) -> es.ESState:
+    """Run generations from `state` up to `target`, each call ending at a multiple of `every` at the
+    latest; after each, `on_call(state, rows, seconds)` gets one metrics row per generation (with
+    its `generation`) and the call's wall-clock, and may return True to stop."""
+    per_call = trainer.cfg.train.generations_per_call
+    generation = int(state.generation)
+    while generation < target:
+        n = min(per_call, target - generation, (generation // every + 1) * every - generation)
+        t_call = time.perf_counter()
+        state, metrics = trainer.run(state, jnp.int32(n))
+        metrics = jax.device_get(metrics)
+        rows = [{"generation": generation + i + 1, **{k: float(v[i]) for k, v in metrics.items()}} for i in range(n)]
+        generation += n
+        if on_call(state, rows, time.perf_counter() - t_call):
+            break
+    return state
 
 
 def _truncate_metrics(path: Path, generation: int) -> None:
@@ -168,78 +221,94 @@ def _truncate_metrics(path: Path, generation: int) -> None:
     path.write_text("".join(f"{line}\n" for line in keep))
 
 
+@dataclasses.dataclass
+class _Run:
+    """The running totals of one `train` call, carried across resumes in the checkpoints."""
+
+    physics_steps: float = 0.0
+    wall_clock: float = 0.0
+    history: list = dataclasses.field(default_factory=list)  # config changes accepted on resume
+
+
 def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
-          log: Callable[[str], None] | None = None, init: str | Path | None = None) -> dict:
+          log: Callable[[str], None] | None = None, init: str | Path | None = None,
+          accept_changes: bool = False) -> dict:
     """Train (or resume) into `out`: `out/checkpoints/`, `out/metrics.jsonl` and `out/learning_curve.png`.
 
     `init` warm-starts a new run from another run's policy (`setup`); a run that has a checkpoint
-    resumes from it instead, keeping the warm start it began with. Physics steps and wall-clock
-    count this run's only. Everything that can refuse the run (config, model, devices, `init`) is
-    checked before `out` is created.
+    resumes from it instead, keeping the warm start it began with, and refuses a changed config
+    (`check_resume`). Physics steps and wall-clock count this run's only. Everything that can
+    refuse the run (config, model, devices, `init`) is checked before `out` is written.
     """
     out = Path(out)
     log = log or (lambda msg: print(msg, file=sys.stderr))
-    resuming = checkpoint.is_checkpoint_dir(out / "checkpoints")
-    trainer = setup(cfg, model_path, None if resuming else init)
+    changes = check_resume(cfg, out, accept_changes)
+    trainer = setup(cfg, model_path, None if changes is not None else init)
     mngr = checkpoint.manager(out / "checkpoints")
-    state, physics_steps, wall_clock = trainer.state, 0.0, 0.0
-    if resuming:
-        state, meta = checkpoint.restore(mngr, state)
-        checkpoint.check_compatible(meta, cfg.robot, trainer.num_params, trainer.env.action_dim)
-        physics_steps, wall_clock = float(meta["physics_steps"]), float(meta["wall_clock_s"])
-        trainer.init = meta.get("init")
-        log(f"resuming {out} at generation {int(state.generation)}")
-        state = replicate(state)
-    elif trainer.init:
-        log(f"warm start from {init} (generation {trainer.init['generation']})")
-    generation = int(state.generation)
-    metrics_path = out / METRICS
-    _truncate_metrics(metrics_path, generation)
-
-    target, every, per_call = cfg.train.generations, cfg.train.checkpoint_every, cfg.train.generations_per_call
+    state, totals = _start(trainer, mngr, changes, init, log, out)
+    _truncate_metrics(out / METRICS, int(state.generation))
     t0 = time.perf_counter()
-    compiled = trainer.run.lower(state, jnp.int32(per_call)).compile()
+    trainer.run = trainer.run.lower(state, jnp.int32(cfg.train.generations_per_call)).compile()
     compile_s = time.perf_counter() - t0
-    log(f"compiled one call of {per_call} generations in {compile_s:.1f} s "
+    log(f"compiled one call of {cfg.train.generations_per_call} generations in {compile_s:.1f} s "
         f"({trainer.env.impl}, {trainer.devices} {jax.default_backend()} device(s), population {cfg.es.population})")
-    bar = _progress(progress, target, generation)
-    start = time.perf_counter()
-    with metrics_path.open("a") as f:
-        while generation < target:
-            n = min(per_call, target - generation, (generation // every + 1) * every - generation)
-            t_call = time.perf_counter()
-            state, metrics = compiled(state, jnp.int32(n))
-            metrics = jax.device_get(metrics)
-            seconds = time.perf_counter() - t_call
-            steps = float(np.sum(metrics["physics_steps"][:n]))
-            for i in range(n):
-                physics_steps += float(metrics["physics_steps"][i])
-                row = {"generation": generation + i + 1, **{k: float(v[i]) for k, v in metrics.items()}}
-                row.update(physics_steps_total=physics_steps, wall_clock_s=wall_clock + time.perf_counter() - start,
+    state = _train_loop(trainer, state, totals, mngr, out, progress)
+    if mngr.latest_step() != int(state.generation):  # nothing was due (already trained that far): still leave one
+        checkpoint.save(mngr, int(state.generation), state, metadata(trainer, int(state.generation),
+                                                                      totals.physics_steps, totals.wall_clock,
+                                                                      totals.history))
+    plots.learning_curve(out / METRICS, out / "learning_curve.png", title=f"{cfg.robot}: fitness (Fig. 6)")
+    return {"generation": int(state.generation), "physics_steps": totals.physics_steps,
+            "wall_clock_s": totals.wall_clock, "compile_s": compile_s,
+            "params_sha256": checkpoint.params_sha256(state.mean), "devices": trainer.devices,
+            "impl": trainer.env.impl}
+
+
+def _start(trainer: Trainer, mngr: Any, changes: dict | None, init: Any, log: Callable, out: Path
+           ) -> tuple[es.ESState, _Run]:
+    """The state to train from and the totals so far: a resumed checkpoint's, or a fresh start's."""
+    if changes is None:
+        if trainer.init:
+            log(f"warm start from {init} (generation {trainer.init['generation']})")
+        return trainer.state, _Run()
+    state, meta = checkpoint.restore(mngr, trainer.state)
+    trainer.init = meta.get("init")
+    history = list(meta.get("config_changes", []))
+    if changes:
+        history.append({"generation": int(state.generation), "changes": changes})
+        log(f"resuming {out} with changed settings: {', '.join(changes)}")
+    log(f"resuming {out} at generation {int(state.generation)}")
+    return replicate(state), _Run(float(meta["physics_steps"]), float(meta["wall_clock_s"]), history)
+
+
+def _train_loop(trainer: Trainer, state: es.ESState, totals: _Run, mngr: Any, out: Path,
+                progress: bool | None) -> es.ESState:
+    cfg = trainer.cfg
+    bar = _progress(progress, cfg.train.generations, int(state.generation))
+    start, wall0 = time.perf_counter(), totals.wall_clock
+
+    with (out / METRICS).open("a") as f:
+        def on_call(state, rows, seconds):
+            steps = sum(r["physics_steps"] for r in rows)
+            for row in rows:
+                totals.physics_steps += row["physics_steps"]
+                row.update(physics_steps_total=totals.physics_steps, wall_clock_s=wall0 + time.perf_counter() - start,
                            samples_per_s=steps / seconds)
                 f.write(json.dumps(row) + "\n")
             f.flush()
-            generation += n
-            if generation % every == 0 or generation == target:
+            totals.wall_clock = wall0 + time.perf_counter() - start
+            generation = rows[-1]["generation"]
+            if generation % cfg.train.checkpoint_every == 0 or generation == cfg.train.generations:
                 checkpoint.save(mngr, generation, state,
-                                metadata(trainer, generation, physics_steps, wall_clock + time.perf_counter() - start))
+                                metadata(trainer, generation, totals.physics_steps, totals.wall_clock, totals.history))
             if bar:
-                bar.update(n)
-                bar.set_postfix(fitness=f"{float(metrics['fitness_mean'][n - 1]):.3f}")
+                bar.update(len(rows))
+                bar.set_postfix(fitness=f"{rows[-1]['fitness_mean']:.3f}")
+
+        state = drive(trainer, state, cfg.train.generations, cfg.train.checkpoint_every, on_call)
     if bar:
         bar.close()
-    if mngr.latest_step() != generation:  # nothing was due (already trained that far): still leave a checkpoint
-        checkpoint.save(mngr, generation, state, metadata(trainer, generation, physics_steps, wall_clock))
-    plots.learning_curve(metrics_path, out / "learning_curve.png", title=f"{cfg.robot}: fitness (Fig. 6)")
-    return {
-        "generation": generation,
-        "physics_steps": physics_steps,
-        "wall_clock_s": wall_clock + time.perf_counter() - start,
-        "compile_s": compile_s,
-        "params_sha256": checkpoint.params_sha256(state.mean),
-        "devices": trainer.devices,
-        "impl": trainer.env.impl,
-    }
+    return state
 
 
 def _progress(enabled: bool | None, total: int, initial: int) -> Any:

@@ -56,7 +56,17 @@ def cassie_cfg():
 def cassie(cassie_cfg):
     from mjx_cascade import robots
 
-    return robots.build(robots.get("cassie"), cassie_cfg)
+    return robots.build(robots.get("cassie"), cassie_cfg.physics)
+
+
+@pytest.fixture(scope="session")
+def cassie_network(cassie_cfg):
+    """Cassie's motion policy network with its initial parameters (`cassie_network.init_params`)."""
+    import jax
+
+    from mjx_cascade import policy
+
+    return policy.for_controller(cassie_cfg, 6, jax.random.PRNGKey(cassie_cfg.seed))
 
 
 @pytest.fixture(scope="session")
@@ -67,7 +77,7 @@ def cassie_pool(cassie, cassie_cfg):
 
 
 @pytest.fixture(scope="session")
-def cassie_env(cassie, cassie_cfg, cassie_pool):
+def cassie_env(cassie, cassie_cfg, cassie_pool, cassie_network):
     from mjx_cascade.env import Env
 
-    return Env(cassie, cassie_cfg, cassie_pool, batch=4)
+    return Env(cassie, cassie_cfg, cassie_pool, cassie_network.apply)

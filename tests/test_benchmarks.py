@@ -2,11 +2,12 @@
 
 import json
 
+import jax
 import numpy as np
 import pytest
 
 from conftest import DATA, ROOT, benchmark_script
-from mjx_cascade import evaluate, scenario
+from mjx_cascade import evaluate, policy, scenario
 
 pytestmark = pytest.mark.slow
 
@@ -44,9 +45,7 @@ def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     """One compiled simulation serves every policy (the time-to-walk checks rely on it)."""
     cfg = cassie_cfg.override(**SMOKE, **{"physics.dt": EVAL_DT})  # the time-to-walk test's checks
     run = evaluate.Runner(cfg, _short_scenarios())
-    from mjx_cascade.env import make_env
-
-    params = make_env(cfg).init_params
+    params = policy.for_controller(cfg, 6, jax.random.PRNGKey(0)).init_params
     other = np.asarray(params) + np.random.default_rng(0).normal(0.0, 0.5, params.shape).astype(np.float32)
     a, b = run(np.asarray(params))[0], run(other)[0]
     assert a["qpos"].shape == b["qpos"].shape and not np.allclose(a["qpos"], b["qpos"])
@@ -57,3 +56,15 @@ def test_time_to_walk_checks_twelve_flat_profiles_by_default():
     scenarios = [scenario.load(ROOT / f) for f in ttw.DEFAULT_SCENARIOS]
     assert len({s.name for s in scenarios}) == 12
     assert all(s.terrain == {"type": "flat"} and s.duration >= 12.0 for s in scenarios)  # one batch
+
+
+def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tmp_path):
+    """The shipped-policy test's walk (its program is in the compilation cache), through the script."""
+    walking = benchmark_script("walking")
+    out = tmp_path / "walking.json"
+    assert walking.main(["--robot", "cassie", "--scenario", str(DATA / "walk_short.json"), "--out", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["count"] == 1 and result["dt"] == EVAL_DT and result["code_version"] != ""
+    line = result["scenarios"][0]
+    assert line["scenario"] == "walk_short" and result["passed"] == int(line["passed"])
+    assert 0 < line["worst"]["vx"] < 0.1 and result["policy"]["revisions"] == [{"regulators.height_over_slope": True}]

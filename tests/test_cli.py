@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -9,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjx_cascade import config
+from mjx_cascade import config, rewards
 
 from conftest import DATA, DIGIT_MODEL, ROOT
 
@@ -82,11 +83,15 @@ def after_smoke(smoke, tmp_path_factory):
     from mjx_cascade import policies
 
     tmp = tmp_path_factory.mktemp("after_smoke")
-    exported = policies.export(smoke[0], "cassie", tmp / "policies") / "cassie.npz"
+    exported = policies.export(smoke[0], tmp / "policy")
     ev = ["eval", "--robot", "cassie", "--checkpoint", smoke[0], "--dt", 0.0005, "--json"]
     runs = {"short": [*ev, "--scenario", DATA / "short.json", "--set", "regulators.k_phr=0.3"],  # the config's own value
             "both": [*ev, "--scenario", DATA / "short.json", DATA / "other.json", "--no-video"],
-            "warm": ["train", "--robot", "cassie", "--init", exported, "--generations", 4, *SMOKE]}
+            "warm": ["train", "--robot", "cassie", "--init", exported, "--generations", 4, *SMOKE],
+            # a changed reward setting, accepted: the run goes on with it and records the change
+            "changed": ["train", "--robot", "cassie", "--generations", 4, *SMOKE, "--set",
+                        "rewards.termination_penalty=10", "--accept-changes"]}
+    shutil.copytree(smoke[0], tmp / "changed")
     jobs = {name: (tmp / name, start_cli(tmp / name, *args, "--out", tmp / name)) for name, args in runs.items()}
     return {**jobs, "exported": exported}
 
@@ -98,8 +103,9 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
     lines = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
     assert [r["generation"] for r in lines] == [1, 2, 3]
     for key in ("fitness_mean", "fitness_max", "sigma", "learning_rate", "physics_steps_total", "wall_clock_s",
-                "samples_per_s", "diverged"):
+                "samples_per_s", "diverged", *(f"reward/{term}" for term in rewards.TERMS)):
         assert all(np.isfinite(r[key]) for r in lines), key
+    assert any(r["reward/orientation"] < 0 for r in lines)  # the terms are measured, not placeholders
     assert lines[2]["physics_steps_total"] > lines[1]["physics_steps_total"]
     assert "resuming" in second.stderr
     # every 10 generations by default, and always where a run stops
@@ -120,16 +126,18 @@ def test_a_checkpoint_reads_from_a_path_relative_to_the_working_directory(smoke,
 
 
 @pytest.mark.slow
-def test_export_ships_a_run_as_a_packaged_policy(smoke, tmp_path):
+def test_export_writes_a_run_as_a_policy_directory(smoke, tmp_path):
     from mjx_cascade import checkpoint, policies
 
-    dest = policies.export(smoke[0], "cassie", tmp_path / "policies")
-    meta = json.loads((dest / "cassie.json").read_text())
-    params = np.load(dest / "cassie.npz")["params"]
-    assert meta["generation"] == 3 and meta["config"]["robot"] == "cassie"
-    assert meta["params_sha256"] == checkpoint.params_sha256(params) == checkpoint.params_sha256(checkpoint.read(smoke[0])[1])
-    assert len((dest / "cassie_metrics.jsonl").read_text().splitlines()) == 3
-    assert (dest / "cassie_learning.png").stat().st_size > 10_000
+    dest = policies.export(smoke[0], tmp_path / "policy")
+    record = json.loads((dest / "record.json").read_text())
+    params = np.load(dest / "params.npz")["params"]
+    assert record["generation"] == 3 and record["config"]["robot"] == "cassie"
+    assert record["params_sha256"] == checkpoint.params_sha256(params) == checkpoint.params_sha256(checkpoint.read(smoke[0])[1])
+    assert len((dest / "metrics.jsonl").read_text().splitlines()) == 3
+    assert (dest / "learning_curve.png").stat().st_size > 10_000
+    found = policies.load(dest)
+    assert found.revisions == [] and found.config == config.from_dict(record["config"])
 
 
 @pytest.mark.slow
@@ -144,9 +152,9 @@ def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_genera
     assert [r["generation"] for r in lines] == [4]
     assert lines[0]["physics_steps_total"] == lines[0]["physics_steps"]  # this run's steps only
     meta, params = checkpoint.read(out)
-    assert meta["init"]["params_sha256"] == checkpoint.params_sha256(np.load(exported)["params"])
+    assert meta["init"]["params_sha256"] == checkpoint.params_sha256(np.load(exported / "params.npz")["params"])
     assert meta["init"]["generation"] == 3
-    start = checkpoint.read(exported)[1]
+    start = np.load(exported / "params.npz")["params"]
     assert 0 < np.max(np.abs(params - start)) < 0.1  # one step from the exported policy, not from scratch
     # a rerun resumes its own checkpoint and keeps the record of where it started
     res = cli("train", "--robot", "cassie", "--out", out, "--init", exported, "--generations", 5, *SMOKE)
@@ -181,6 +189,7 @@ def test_eval_writes_trajectory_metrics_and_plots(short_eval):
     assert set(metrics) >= {"fell", "segments", "passed", "policy"}
     assert json.loads(res.stdout)["policy"]["generation"] == 3
     assert metrics["policy"]["settings"] == {"regulators.k_phr": "0.3"}  # what --set changed, as given
+    assert metrics["policy"]["revisions"] == []  # a run's checkpoint runs as it trained
     for png in ("tracking.png", "limit_cycles.png"):
         assert (out / png).stat().st_size > 10_000
 
@@ -196,6 +205,8 @@ def test_eval_runs_several_scenarios_in_one_batch_as_each_runs_alone(after_smoke
     assert names == ["short", "other"]
     summary = json.loads((both / "summary.json").read_text())
     assert [s["scenario"] for s in summary["scenarios"]] == names
+    assert summary["passed"] == sum(s["passed"] for s in summary["scenarios"]) and summary["dt"] == 0.0005
+    assert all(s["worst"] == {"vx": None, "vy": None, "yaw": None} for s in summary["scenarios"])  # none judged
     batched, alone = np.load(both / "short" / "trajectory.npz"), np.load(short_eval[0] / "trajectory.npz")
     np.testing.assert_array_equal(batched["t"], alone["t"])
     np.testing.assert_array_equal(batched["cmd"], alone["cmd"])
@@ -252,7 +263,7 @@ def bad_inputs(tmp_path):
          "--dt"),
         (["eval", "--robot", "cassie", "--scenario", scen(_with(name="same")), scen(_with(name="same")), "--out"],
          "names must differ"),
-        (train[:3] + ["--init", tmp_path / "missing.npz", "--out"], "missing.json beside it"),
+        (train[:3] + ["--init", tmp_path / "missing", "--out"], "not a checkpoint"),
         (train[:3] + ["--init", ckpt_free, "--out"], "not a checkpoint"),
         (["info", "--checkpoint", ckpt_free], "not a checkpoint"),
         (["robustness", "--robot", "cassie", "--axes", "push", "wind", "--out"], "unknown sweep axis 'wind'"),
@@ -273,18 +284,19 @@ def test_eval_settings_change_the_controller_of_the_same_parameters():
     """`eval --set` measures a controller setting on a trained policy without retraining it."""
     from mjx_cascade import config, evaluate
 
-    base, params, _ = evaluate.load_policy("cassie", None, dt=0.0005)
-    cfg, changed, _ = evaluate.load_policy("cassie", None, dt=0.0005,
-                                           settings={"regulators.k_phr": "0.45", "gait.first_swing": "command"})
+    base, found = evaluate.load_policy("cassie", None, dt=0.0005)
+    cfg, changed = evaluate.load_policy("cassie", None, dt=0.0005,
+                                        settings={"regulators.k_phr": "0.45", "gait.first_swing": "command"})
     assert cfg.regulators.k_phr == 0.45 and cfg.gait.first_swing == "command" and cfg.physics.dt == 0.0005
-    np.testing.assert_array_equal(changed, params)
+    np.testing.assert_array_equal(changed.params, found.params)
+    assert base.regulators.height_over_slope  # the shipped policy's revision applies
     undone = cfg.override(**{"regulators.k_phr": base.regulators.k_phr, "gait.first_swing": base.gait.first_swing})
     assert config.to_dict(undone) == config.to_dict(base)  # nothing else moved
     # the physics flags win over --set, and --set alone reaches the physics
-    flags, _, _ = evaluate.load_policy("cassie", None, dt=0.0005, impl="jax",
-                                       settings={"physics.dt": "0.001", "physics.impl": "warp"})
+    flags, _ = evaluate.load_policy("cassie", None, dt=0.0005, impl="jax",
+                                    settings={"physics.dt": "0.001", "physics.impl": "warp"})
     assert flags.physics.dt == 0.0005 and flags.physics.impl == "jax"
-    alone, _, _ = evaluate.load_policy("cassie", None, settings={"physics.impl": "jax", "physics.dt": "0.002"})
+    alone, _ = evaluate.load_policy("cassie", None, settings={"physics.impl": "jax", "physics.dt": "0.002"})
     assert alone.physics.impl == "jax" and alone.physics.dt == 0.002
 
 
@@ -312,6 +324,32 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
         assert code == 2, (args, err[-2000:])
         assert len(lines) == 1 and message in lines[0], (args, err)
         assert not out.exists(), args
+
+
+@pytest.mark.slow
+def test_a_resume_with_a_changed_setting_is_refused_in_one_line_and_writes_nothing(smoke, capsys):
+    out = smoke[0]
+    before = {p.name: p.stat().st_mtime_ns for p in out.rglob("*")}
+    code, err = _main(["train", "--robot", "cassie", "--out", out, "--generations", 5, *SMOKE,
+                       "--set", "es.sigma=0.05", "--set", "gait.step_time=0.3",
+                       "--set", "train.checkpoint_every=7"], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "gait.step_time (0.35 -> 0.3), es.sigma (0.1 -> 0.05)" in err and "--accept-changes" in err
+    assert "checkpoint_every" not in err  # how a run is checkpointed may change on resume
+    assert {p.name: p.stat().st_mtime_ns for p in out.rglob("*")} == before
+
+
+@pytest.mark.slow
+def test_accept_changes_resumes_with_the_new_setting_and_records_it(after_smoke):
+    from mjx_cascade import checkpoint
+
+    out, proc = after_smoke["changed"]
+    res = finished(proc, out)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "changed settings: rewards.termination_penalty" in res.stderr
+    meta, _ = checkpoint.read(out)
+    assert meta["generation"] == 4 and meta["config"]["rewards"]["termination_penalty"] == 10.0
+    assert meta["config_changes"] == [{"generation": 3, "changes": {"rewards.termination_penalty": [20.0, 10.0]}}]
 
 
 @pytest.mark.slow

@@ -1,3 +1,6 @@
+import dataclasses
+import json
+
 import pytest
 import yaml
 
@@ -12,16 +15,34 @@ def test_robot_configs_carry_the_paper_tables():
     # Table 3
     assert (c.es.population, c.es.sigma, c.es.sigma_decay, c.es.sigma_min) == (24, 0.1, 0.9999, 1e-4)
     assert (c.es.learning_rate, c.es.lr_decay, c.es.lr_min) == (0.01, 0.9999, 1e-4)
-    # Table 4
-    assert (c.rewards.height, d.rewards.height, c.rewards.e_height, d.rewards.e_height) == (0.91, 1.0, 0.05, 0.04)
+    # Table 4 (q_z^d is the height regulation's target too)
+    assert (c.regulators.height, d.regulators.height, c.rewards.e_height, d.rewards.e_height) == (0.91, 1.0, 0.05, 0.04)
     assert d.rewards.weights.stance_foot == 0.5 and c.rewards.weights.stance_foot == 0.0
-    # Table 7 (Cassie's placement and torso gains are retuned; configs/cassie.yaml says why)
+    # Table 7 (Cassie's placement and torso gains are retuned; configs/base.yaml and cassie.yaml say why)
     assert (c.regulators.k_dhr, c.regulators.k_dhp, d.regulators.k_p_roll, d.regulators.k_ptp) == (0.05, 0.01, 3500.0, 0.1)
     # Sec. V-C episode lengths: Digit's 7.5 s; Cassie trains on 8 s (the paper's 5 s, lengthened)
     assert (c.episode.seconds, d.episode.seconds) == (8.0, 7.5)
 
 
-def test_overrides_are_typed_and_validated():
+def test_a_robot_file_states_only_its_differences_from_the_base():
+    base = yaml.safe_load((ROOT / "configs" / "base.yaml").read_text())
+    for robot in config.ROBOTS:
+        own = yaml.safe_load((ROOT / "configs" / f"{robot}.yaml").read_text())
+        for section, values in own.items():
+            for key, value in values.items():
+                assert base.get(section, {}).get(key) != value, f"{robot}.yaml repeats {section}.{key}"
+
+
+def test_the_controller_half_is_what_a_policy_runs_with():
+    cfg = config.robot_config("cassie")
+    controller = cfg.controller
+    assert type(controller) is config.ControllerConfig and isinstance(cfg, config.ControllerConfig)
+    assert set(config.to_dict(controller)) == {"version", "robot", *config.CONTROLLER_SECTIONS}
+    assert config.CONTROLLER_SECTIONS == ("physics", "gait", "policy", "regulators")
+    assert controller.regulators is cfg.regulators and controller.override(**{"gait.step_time": 0.3}).gait.step_time == 0.3
+
+
+def test_overrides_are_typed_and_checked_where_the_field_is():
     c = config.robot_config("cassie").override(**{"es.sigma": "0.05", "episode.vx": "[0, 1]"})
     assert c.es.sigma == 0.05 and c.episode.vx == (0.0, 1.0)
     with pytest.raises(ConfigError, match="es.population"):
@@ -32,9 +53,11 @@ def test_overrides_are_typed_and_validated():
         c.override(**{"es.sigmaa": 0.1})
     with pytest.raises(ConfigError, match="must be an integer"):
         c.override(**{"train.generations": 1.5})
+    with pytest.raises(ConfigError, match="physics.dt"):  # the section checks itself, however it is built
+        dataclasses.replace(c.physics, dt=0.0)
 
 
-@pytest.mark.parametrize("key", ["es.sigma", "es.learning_rate", "physics.dt", "episode.seconds"])
+@pytest.mark.parametrize("key", ["es.sigma", "es.learning_rate", "physics.dt", "episode.seconds", "regulators.height"])
 @pytest.mark.parametrize("value", [0, -1])
 def test_non_positive_settings_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
@@ -57,37 +80,61 @@ def test_user_config_file(tmp_path):
         config.load(path)
 
 
-def test_every_setting_is_in_the_shipped_yaml():
-    """A complete YAML round-trips: the robot configs leave nothing to hidden defaults."""
+def test_a_saved_config_round_trips_and_must_be_complete():
     cfg = config.robot_config("cassie")
-    assert config.from_dict(config.to_dict(cfg)) == cfg
-    data = config.to_dict(cfg)
-    del data["gait"]["step_time"]
+    saved = config.to_dict(cfg)
+    assert saved["version"] == config.VERSION and config.from_dict(json.loads(json.dumps(saved))) == cfg
+    del saved["gait"]["step_time"]
     with pytest.raises(ConfigError, match="gait.step_time"):
-        config.from_dict(data)
-    for robot in config.ROBOTS:  # settings that have defaults are written out too
-        raw = yaml.safe_load((ROOT / "configs" / f"{robot}.yaml").read_text())
-        full = config.to_dict(config.robot_config(robot))
-        assert all(set(raw[k]) == set(full[k]) for k in full if isinstance(full[k], dict)), robot
+        config.from_dict(saved)
+    with pytest.raises(ConfigError, match="newer"):
+        config.from_dict({**config.to_dict(cfg), "version": config.VERSION + 1})
 
 
-def test_a_config_saved_before_newer_settings_existed_loads_without_them():
-    data = config.to_dict(config.robot_config("cassie"))
-    for key in ("push_force", "push_seconds", "push_after", "push_warmup_generations"):
-        del data["randomization"][key]
-    del data["episode"]["command_change"]
-    del data["regulators"]["k_i_drift_y"]
-    del data["regulators"]["command_rate"]
-    del data["rewards"]["velocity_steps"]
-    del data["gait"]["first_swing"]
-    del data["policy"]["mirror_lateral"]
-    cfg = config.from_dict(data)
-    assert cfg.gait.first_swing == "random"  # then a coin chose the first step's foot
-    assert cfg.regulators.command_rate == (0.0, 0.0)  # then commands were followed at once
-    assert cfg.randomization.push_force == (0.0, 0.0) and cfg.episode.command_change == (0.0, 0.0)
-    assert cfg.regulators.k_i_drift_y == 0.05  # then one gain, 0.05, served both drift terms
-    assert cfg.rewards.velocity_steps == 1  # then the last step's average was scored
-    assert not cfg.policy.mirror_lateral  # then both stances saw the state unmirrored
+def _version_1(cfg: config.Config) -> dict:
+    """`cfg` as version 1 saved it: no version, the desired height under rewards, slope estimation."""
+    data = config.to_dict(cfg)
+    del data["version"]
+    data["rewards"]["height"] = data["regulators"].pop("height")
+    data["regulators"]["slope_estimation"] = True
+    return data
+
+
+def test_migration_reads_a_version_1_config_as_it_meant():
+    cfg = config.robot_config("cassie")
+    assert config.from_dict(_version_1(cfg)) == cfg  # every setting saved: nothing to fill in
+    old = _version_1(cfg)
+    for section, keys in {"randomization": ("push_force", "push_seconds", "push_after", "push_warmup_generations"),
+                          "episode": ("command_change",), "gait": ("first_swing",), "policy": ("mirror_lateral",),
+                          "rewards": ("velocity_steps",),
+                          "regulators": ("k_height", "k_i_drift_y", "command_rate", "height_over_slope")}.items():
+        for key in keys:
+            del old[section][key]
+    meant = config.from_dict(old)  # saved before those settings existed: what the code then did
+    assert meant.gait.first_swing == "random" and meant.regulators.command_rate == (0.0, 0.0)
+    assert meant.randomization.push_force == (0.0, 0.0) and meant.episode.command_change == (0.0, 0.0)
+    assert meant.regulators.k_i_drift_y == 0.05 and meant.regulators.k_height == 0.0
+    assert meant.rewards.velocity_steps == 1 and not meant.policy.mirror_lateral
+    assert not meant.regulators.height_over_slope and meant.regulators.height == 0.91
+    off = _version_1(cfg)
+    off["regulators"]["slope_estimation"] = False
+    with pytest.raises(ConfigError, match="slope_estimation"):
+        config.from_dict(off)
+
+
+def test_the_shipped_policies_records_load_through_the_migration():
+    for robot in config.ROBOTS:
+        record = json.loads((ROOT / "mjx_cascade" / "policies" / robot / "record.json").read_text())
+        assert "version" not in record["config"]  # saved by version 1
+        assert config.from_dict(record["config"]).robot == robot
+
+
+def test_differences_name_the_changed_keys_in_order():
+    a = config.robot_config("cassie")
+    b = a.override(**{"es.sigma": 0.05, "gait.step_time": 0.3})
+    assert config.differences(a, b) == ["gait.step_time", "es.sigma"]
+    assert config.differences(a, a) == []
+    assert config.get(b, "es.sigma") == 0.05 and config.get(b, "episode.vx") == [-0.3, 0.8]
 
 
 @pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
@@ -97,9 +144,16 @@ def test_a_config_saved_before_newer_settings_existed_loads_without_them():
                                         ("randomization.push_warmup_generations", -1),
                                         ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0),
                                         ("gait.first_swing", "left"), ("policy.mirror_lateral", 1)])
-def test_bad_values_of_the_newer_settings_are_refused(key, value):
+def test_bad_values_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})
+
+
+def test_a_trained_policy_may_change_only_its_controller():
+    config.check_controller_settings({"regulators.k_phr": 0.4, "gait.first_swing": "command", "physics.dt": 0.0005})
+    for key in ("rewards.e_vy", "es.sigma", "gait.bezier_order", "policy.hidden_units"):
+        with pytest.raises(ConfigError, match="can change only"):
+            config.check_controller_settings({key: 1})
 
 
 def test_set_assignments_are_parsed_once_for_every_command_line():

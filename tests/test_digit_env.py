@@ -5,9 +5,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_cascade import config, rollout
+from mjx_cascade import config, episodes, policy
 from mjx_cascade.env import make_env
 from conftest import DIGIT_MODEL
+from test_env import timeouts_at_most
 
 pytestmark = pytest.mark.slow
 
@@ -19,12 +20,13 @@ def test_an_untrained_digit_policy_steps_in_place():
     cfg = config.robot_config("digit").override(**{
         "episode.pool_size": 4, "episode.seconds": 2.0, "episode.vx": [0.0, 0.0], "episode.vy": [0.0, 0.0],
         "episode.yaw": [0.0, 0.0], "randomization.enabled": False})
-    env = make_env(cfg, batch=4, model_path=str(DIGIT_MODEL))
-    params = jnp.stack([env.init_params] * 4)
+    network = policy.for_controller(cfg, 7, jax.random.PRNGKey(0))
+    env = make_env(cfg, network.apply, model_path=str(DIGIT_MODEL))
+    params = jnp.stack([network.init_params] * 4)
     keys = jax.random.split(jax.random.PRNGKey(1), 4)
-    episodes = jax.jit(lambda p, k: rollout.run_episodes(env, p, k))(params, keys)
-    assert np.all(np.isfinite(np.asarray(episodes.fitness)))
-    assert not np.any(np.asarray(episodes.terminated)) and not np.any(np.asarray(episodes.diverged))
-    np.testing.assert_array_equal(np.asarray(episodes.steps), env.episode_steps)
-    # 2 s of steps of at most step_time each (a step ends at touchdown or by time-out)
-    assert np.all(np.asarray(episodes.walking_steps) >= int(0.75 * 2.0 / cfg.gait.step_time))
+    result = jax.tree.map(np.asarray, jax.jit(lambda p, k: episodes.run(env, p, k))(params, keys))
+    assert np.all(np.isfinite(result.fitness))
+    assert not np.any(result.terminated) and not np.any(result.diverged)
+    np.testing.assert_array_equal(result.steps, round(2.0 / env.dt))
+    # stepping, not standing: more steps than time-outs alone end in 2 s
+    assert np.all(result.walking_steps >= timeouts_at_most(2.0, cfg.gait) + 1), result.walking_steps

@@ -23,17 +23,17 @@ def test_table_1_parameter_counts(learned, params):
     actions = policy.action_dim(learned, 5)
     assert actions == learned * 4
     assert policy.param_count(actions, 4, 32) == params
-    _, flat, unravel = policy.make(actions, 4, 32, jax.random.PRNGKey(0))
-    assert flat.shape == (params,)  # the flax module itself has exactly that many
-    assert sum(x.size for x in jax.tree.leaves(unravel(flat))) == params
+    net = policy.make(actions, 4, 32, jax.random.PRNGKey(0))
+    assert net.init_params.shape == (params,) == (net.num_params,)  # the flax module itself has exactly that many
+    assert sum(x.size for x in jax.tree.leaves(net.unravel(net.init_params))) == params
 
 
 def test_policy_outputs_are_sigmoids_and_depend_on_parameters():
-    module, flat, unravel = policy.make(24, 4, 32, jax.random.PRNGKey(0))
+    net = policy.make(24, 4, 32, jax.random.PRNGKey(0))
     s = jnp.array([0.5, 0.0, 0.1, 0.0, -0.4, 0.0])
-    a = policy.apply_flat(module, unravel, flat, s)
+    a = net.apply(net.init_params, s)
     assert a.shape == (24,) and np.all((a > 0) & (a < 1))
-    b = policy.apply_flat(module, unravel, flat + 0.1, s)
+    b = net.apply(net.init_params + 0.1, s)
     assert not np.allclose(a, b)
 
 

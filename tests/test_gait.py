@@ -87,7 +87,7 @@ def test_step_ends_on_touchdown_after_min_phase_or_on_time_out():
     assert ended(1.3, 0.0) and ended(1.3, 300.0, lifted=False)  # time-out
 
 
-def test_a_right_stance_step_is_the_mirror_image_of_a_left_stance_step(cassie, cassie_cfg, cassie_pool):
+def test_a_right_stance_step_is_the_mirror_image_of_a_left_stance_step(cassie, cassie_cfg, cassie_pool, cassie_network):
     """With `policy.mirror_lateral` (the shipped config's setting), the policy plans a right-stance
     step from the mirrored state (lateral velocities and heading negated, legs swapped) exactly as
     it plans the left-stance step: eq. 12 applied to the state as well as the coefficients.
@@ -103,10 +103,11 @@ def test_a_right_stance_step_is_the_mirror_image_of_a_left_stance_step(cassie, c
     mirrored = jnp.array([1.0, -1.0, -1.0])
 
     def plans(cfg):
-        env = Env(r, cfg, cassie_pool)
-        params = env.init_params + 0.3 * jnp.asarray(rng.normal(size=env.init_params.shape), jnp.float32)
-        left = env.plan(params, q, jnp.int32(gait.LEFT), cmd, v_avg)
-        right = env.plan(params, q_mirror, jnp.int32(gait.RIGHT), cmd * mirrored, v_avg * mirrored[:2])
+        ctl = Env(r, cfg, cassie_pool, cassie_network.apply).controller
+        p0 = cassie_network.init_params
+        params = p0 + 0.3 * jnp.asarray(rng.normal(size=p0.shape), jnp.float32)
+        left = ctl.plan(params, q, jnp.int32(gait.LEFT), cmd, v_avg)
+        right = ctl.plan(params, q_mirror, jnp.int32(gait.RIGHT), cmd * mirrored, v_avg * mirrored[:2])
         return np.asarray(left), np.asarray(right)
 
     left, right = plans(cassie_cfg)

@@ -8,6 +8,9 @@ import pytest
 
 from conftest import ROOT
 
+# Each notebook compiles and runs MJX programs (02 trains a few generations): tens of seconds each.
+pytestmark = pytest.mark.slow
+
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 
 # Executes one notebook in its own kernel; prints the code cells' errors, if any.

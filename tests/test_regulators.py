@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjx_cascade import config, features, gait, regulators
+from mjx_cascade import config, features, gait, policy, regulators
 from mjx_cascade.env import Env
 from mjx_cascade.physics import mjx
 
@@ -91,15 +91,6 @@ def test_rate_limit_ramps_each_axis_and_wraps_the_heading():
     np.testing.assert_array_equal(regulators.rate_limit(jnp.zeros(3), cmd, dt, off), cmd)
 
 
-def test_a_command_held_since_reset_is_followed_bit_for_bit_at_any_rate():
-    """The followed command starts at the given one (env.reset), so an episode with one command
-    (episode.command_change 0) trains the same whatever regulators.command_rate is."""
-    reg = dataclasses.replace(REG, command_rate=(1.0, 1.0))
-    cmd = jnp.asarray(np.random.default_rng(0).uniform([-0.3, -0.3, -3.2], [0.8, 0.3, 3.2], (64, 3)), jnp.float32)
-    held = jax.vmap(lambda c: regulators.rate_limit(c, c, 0.001, reg))(cmd)
-    np.testing.assert_array_equal(held, cmd)
-
-
 def test_height_fix_extends_only_for_a_sag_and_saturates():
     reg = dataclasses.replace(REG, k_height=2.0)
     assert float(regulators.height_fix(jnp.float32(0.86), 0.91, reg)) == pytest.approx(0.1)
@@ -130,26 +121,34 @@ def test_torso_torque_opposes_tilt():
 
 
 @pytest.fixture(scope="module")
-def standing(cassie_env, cassie_pool):
+def standing(cassie_env, cassie_pool, cassie_network):
     env = cassie_env
-    data = env.data_template.replace(qpos=jnp.asarray(cassie_pool[0][0]), qvel=jnp.zeros(env.robot.model.nv))
+    data = env.data_template(1).replace(qpos=jnp.asarray(cassie_pool[0][0]), qvel=jnp.zeros(env.robot.model.nv))
     data = jax.jit(lambda d: mjx.forward(env.model, d))(data)
-    state = jax.jit(env.reset)(env.init_params, jax.random.PRNGKey(0), jnp.zeros(3))
+    obs = jax.jit(env.observe)(data)
+    # the controller's reset alone: env.reset would compile a second forward pass
+    ctrl = jax.jit(env.controller.reset)(cassie_network.init_params, jax.random.PRNGKey(0), obs, data.time, jnp.zeros(3))
     # right foot in stance, a quarter into the step: too early for a touchdown to end it
-    ctrl = state.ctrl.replace(stance=jnp.int32(gait.RIGHT), step_start=jnp.float32(-0.1))
-    return env, data, jax.jit(env.observe)(data), ctrl
+    ctrl = ctrl.replace(stance=jnp.int32(gait.RIGHT), step_start=jnp.float32(-0.1))
+    return env, data, obs, ctrl
 
 
 @functools.cache
 def _control(env):
-    """`env.control`, compiled once for every test here (run op by op it takes seconds a call)."""
-    return jax.jit(env.control)
+    """The controller's tick, compiled once for every test here (run op by op it takes seconds a call)."""
+    return jax.jit(env.controller.tick)
+
+
+@functools.cache
+def _untrained():
+    """The untrained policy's parameters (the range middles, about)."""
+    return policy.for_controller(config.robot_config("cassie"), 6, jax.random.PRNGKey(0)).init_params
 
 
 def _obs_change(env, obs, ctrl, **change):
     """Joint torques [2, J] that measuring `change` instead of `obs` adds."""
-    base, _, _ = _control(env)(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
-    moved, _, _ = _control(env)(env.init_params, ctrl, obs._replace(**change), jnp.float32(0.0), jnp.zeros(3))
+    base, _, _ = _control(env)(_untrained(), ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+    moved, _, _ = _control(env)(_untrained(), ctrl, obs._replace(**change), jnp.float32(0.0), jnp.zeros(3))
     return np.asarray(moved - base)
 
 
@@ -199,8 +198,8 @@ def test_heading_error_turns_the_landing_foot_against_it(standing):
     straightening the hip during the next stance turns the pelvis back."""
     env, data, obs, ctrl = standing
     cmd_turned = jnp.array([0.0, 0.0, -0.3])  # pelvis yaw (0) is 0.3 rad beyond the command
-    base, _, _ = _control(env)(env.init_params, ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
-    moved, _, _ = _control(env)(env.init_params, ctrl, obs, jnp.float32(0.0), cmd_turned)
+    base, _, _ = _control(env)(_untrained(), ctrl, obs, jnp.float32(0.0), jnp.zeros(3))
+    moved, _, _ = _control(env)(_untrained(), ctrl, obs, jnp.float32(0.0), cmd_turned)
     j = env.robot.hip_yaw
     dq = float(moved[gait.LEFT, j] - base[gait.LEFT, j]) / env.robot.kp[j]
     _, rot = _swing_foot_shift(env, data, j, dq)
@@ -216,7 +215,7 @@ def test_torso_torques_right_the_pelvis(standing):
     stance = gait.RIGHT
     for axis, joint, tilt in ((0, r.hip_roll, [0.1, 0.0, 0.0]), (1, r.hip_pitch, [0.0, 0.1, 0.0])):
         tilted = obs._replace(rpy=obs.rpy + jnp.array(tilt), omega=jnp.zeros(3))
-        u, _, _ = _control(env)(env.init_params, ctrl, tilted, jnp.float32(0.0), jnp.zeros(3))
+        u, _, _ = _control(env)(_untrained(), ctrl, tilted, jnp.float32(0.0), jnp.zeros(3))
         jnt = int(np.nonzero(m.jnt_qposadr == r.qpos_adr[stance, joint])[0][0])
         on_pelvis = -float(u[stance, joint]) * d.xaxis[jnt]  # a joint torque's reaction on its parent
         assert on_pelvis[axis] < 0, (axis, on_pelvis)
@@ -232,7 +231,7 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
     held = ctrl.replace(hold=obs.q[gait.RIGHT, hips] + 0.05)
 
     def stance_hips(step_start):
-        u, ended, _ = _control(env)(env.init_params, held.replace(step_start=jnp.float32(step_start)), tilted,
+        u, ended, _ = _control(env)(_untrained(), held.replace(step_start=jnp.float32(step_start)), tilted,
                                   jnp.float32(0.0), jnp.zeros(3))
         assert not bool(ended)
         return np.asarray(u[gait.RIGHT, hips])
@@ -244,22 +243,23 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
 
 
 @pytest.fixture(scope="module")
-def height_env(cassie, cassie_pool, standing):
+def height_env(cassie, cassie_pool, standing, cassie_network):
     """The controller with `k_height` 2, measuring the height over the sloped ground."""
     return Env(cassie, standing[0].cfg.override(**{"regulators.k_height": 2.0, "regulators.height_over_slope": True}),
-               cassie_pool)
+               cassie_pool, cassie_network.apply)
 
 
-def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing, height_env):
+def test_height_fix_lengthens_the_stance_leg_when_the_pelvis_sags(cassie, cassie_pool, standing, height_env,
+                                                                 cassie_network):
     """With `k_height`, a pelvis 5 cm below the desired height over the stance foot's ground turns
     the stance knee by k_height * 0.05 rad the way that lengthens the leg; 0 changes nothing."""
     shipped, data, obs, ctrl = standing
-    plain = Env(cassie, shipped.cfg.override(**{"regulators.k_height": 0.0}), cassie_pool)
-    env, r, z = height_env, cassie, height_env.cfg.rewards.height
+    plain = Env(cassie, shipped.cfg.override(**{"regulators.k_height": 0.0}), cassie_pool, cassie_network.apply)
+    env, r, z = height_env, cassie, height_env.cfg.regulators.height
 
     def stance_knee(e, height):
-        ground = obs.feet[ctrl.stance, 2] - e.foot_rest  # under the stance foot
-        u, _, _ = _control(e)(e.init_params, ctrl, obs._replace(pos=obs.pos.at[2].set(ground + height)),
+        ground = obs.feet[ctrl.stance, 2] - e.controller.foot_rest  # under the stance foot
+        u, _, _ = _control(e)(_untrained(), ctrl, obs._replace(pos=obs.pos.at[2].set(ground + height)),
                               jnp.float32(0.0), jnp.zeros(3))
         return float(u[gait.RIGHT, r.knee])
 
@@ -289,7 +289,7 @@ def test_height_fix_measures_the_pelvis_over_the_sloped_ground_beneath_it(cassie
     obs = obs._replace(pos=obs.pos.at[0].add(-0.25))  # the pelvis well behind its stance foot
 
     def stance_knee(slope, sag=0.0):
-        u, _, _ = _control(env)(env.init_params, ctrl.replace(ground=jnp.asarray(slope, jnp.float32)),
+        u, _, _ = _control(env)(_untrained(), ctrl.replace(ground=jnp.asarray(slope, jnp.float32)),
                                 obs._replace(pos=obs.pos.at[2].add(-sag)), jnp.float32(0.0), jnp.zeros(3))
         return float(u[gait.RIGHT, r.knee]) / r.kp[r.knee]
 
@@ -301,3 +301,28 @@ def test_height_fix_measures_the_pelvis_over_the_sloped_ground_beneath_it(cassie
     assert abs(moved) == pytest.approx(2.0 * rise, rel=2e-2)
     sag = stance_knee([0.0, 0.0], sag=rise) - stance_knee([0.0, 0.0])
     assert moved == pytest.approx(sag, rel=2e-2)  # the same as a pelvis that much lower
+
+
+def test_a_command_held_since_reset_is_followed_bit_for_bit_at_any_rate(standing):
+    """The controller starts out following the command it is reset with, so an episode of one command
+    (`episode.command_change` 0) runs the same whatever `regulators.command_rate` is; a command
+    that changes is limited."""
+    env, _, obs, _ = standing
+    cmd = jnp.asarray(np.random.default_rng(0).uniform([-0.3, -0.3, -0.5], [0.8, 0.3, 0.5], (64, 3)), jnp.float32)
+
+    def followed(rate, given):
+        ctl = dataclasses.replace(env.controller, cfg=env.cfg.override(**{"regulators.command_rate": rate}))
+
+        def ticks(start, later):
+            c = ctl.reset(_untrained(), jax.random.PRNGKey(0), obs, jnp.float32(0.0), start)
+            for _ in range(3):
+                c = ctl.follow(c, later)
+            return c.cmd
+
+        return np.asarray(jax.jit(jax.vmap(ticks))(cmd, given))
+
+    held = followed([1.0, 1.0], cmd)
+    np.testing.assert_array_equal(held, followed([0.0, 0.0], cmd))
+    np.testing.assert_array_equal(held, cmd)
+    limit = 3 * env.dt * np.array([1.0, 1.0, 1.0])  # three ticks at 1 m/s^2 and 1 rad/s
+    np.testing.assert_allclose(np.abs(followed([1.0, 1.0], -cmd) - cmd), np.minimum(limit, np.abs(2 * cmd)), atol=1e-6)

@@ -29,12 +29,12 @@ def test_velocity_reward_is_nonincreasing_in_the_error_and_bounded(band):
 
 
 def test_height_reward_peaks_at_the_target_and_falls_both_ways():
-    zd = RW.height
-    above = [float(rewards.height(jnp.float32(zd + e), RW)) for e in ERRORS * 0.3]
-    below = [float(rewards.height(jnp.float32(zd - e), RW)) for e in ERRORS * 0.3]
+    zd = CFG.regulators.height
+    above = [float(rewards.height(jnp.float32(zd + e), zd, RW)) for e in ERRORS * 0.3]
+    below = [float(rewards.height(jnp.float32(zd - e), zd, RW)) for e in ERRORS * 0.3]
     assert nonincreasing(above) and nonincreasing(below)
-    assert float(rewards.height(jnp.float32(zd), RW)) == pytest.approx(1.0)
-    assert float(rewards.height(jnp.float32(zd - 0.01), RW)) < 1.0  # the printed max{., 1} would be 1
+    assert float(rewards.height(jnp.float32(zd), zd, RW)) == pytest.approx(1.0)
+    assert float(rewards.height(jnp.float32(zd - 0.01), zd, RW)) < 1.0  # the printed max{., 1} would be 1
 
 
 def test_torque_reward():
@@ -75,7 +75,7 @@ def _inputs(**kw):
 
 
 def test_terms_order_and_weights():
-    t = rewards.terms(_inputs(), RW)
+    t = rewards.terms(_inputs(), RW, CFG.regulators.height)
     assert t.shape == (len(rewards.TERMS),)
     # Table 4's Cassie weights, except vy: 0.4 in configs/cassie.yaml (README, "How the policy was trained")
     np.testing.assert_allclose(rewards.weights(RW), [0.8, 0.4, 0.1, 0.01, 0.1, 0.5, 0.5, 5.0, 0.0])

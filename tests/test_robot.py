@@ -81,7 +81,7 @@ def test_pool_states_stand_balanced_and_differ(cassie, cassie_pool, cassie_cfg):
 
 @pytest.mark.parametrize("terrain", [{"type": "slope", "degrees": 8.0}, {"type": "rough", "amplitude": 0.02, "seed": 3}])
 def test_terrains_are_level_at_the_start_and_match_the_height_field(terrain, cassie_cfg):
-    robot = robots.build(robots.get("cassie"), cassie_cfg, terrain=terrain)
+    robot = robots.build(robots.get("cassie"), cassie_cfg.physics, terrain=terrain)
     m = robot.model
     assert m.nhfield == 1
     assert abs(scene.ground_height(terrain, 0.0, 0.0)) < 1e-9
@@ -111,7 +111,7 @@ def digit_cfg():
 
 @pytest.fixture(scope="module")
 def digit(digit_cfg):
-    return robots.build(robots.get("digit"), digit_cfg, str(DIGIT_MODEL))
+    return robots.build(robots.get("digit"), digit_cfg.physics, str(DIGIT_MODEL))
 
 
 def test_digit_nominal_stands_flat_with_closed_chains(digit):

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from mjx_cascade import robustness
+from mjx_cascade import judge, robustness
 from mjx_cascade.config import ConfigError
 from mjx_cascade.robots import scene
 
@@ -61,7 +61,7 @@ def _walk(v, seconds=10.0, fall_at=None):
     (lambda t: np.stack([0.3 + 0 * t, 0 * t], 1), 6.0, False),  # fell
 ])
 def test_a_trial_succeeds_when_it_stands_and_tracks_over_the_last_seconds(v, fall_at, success):
-    verdict = robustness.judge(*_walk(v, fall_at=fall_at), np.array([0.3, 0.0, 0.0]), robustness.Sweep())
+    verdict = judge.robust(*_walk(v, fall_at=fall_at), np.array([0.3, 0.0, 0.0]), judge.ROBUSTNESS)
     assert verdict["success"] is success
     assert verdict["fell"] is (fall_at is not None)
 
@@ -71,7 +71,7 @@ def test_one_height_field_holds_a_list_of_terrains(cassie_cfg):
 
     terrains = [{"type": "slope", "degrees": -11.0}, {"type": "slope", "degrees": 11.0},
                 {"type": "rough", "amplitude": 0.04, "seed": 1}]
-    model = robots.build(robots.get("cassie"), cassie_cfg, terrain=terrains).model
+    model = robots.build(robots.get("cassie"), cassie_cfg.physics, terrain=terrains).model
     hf = scene.height_field(model)
     xs, ys = np.random.default_rng(0).uniform(-3, 20, 50), np.random.default_rng(1).uniform(-5, 5, 50)
     for terrain in terrains:
@@ -85,8 +85,8 @@ def test_one_height_field_holds_a_list_of_terrains(cassie_cfg):
 @pytest.mark.slow
 def test_a_small_sweep_with_the_shipped_policy(tmp_path):
     """Pushes of 0 and 400 N and slopes of +-11 degrees, one trial each, in two compiled calls."""
-    sweep = robustness.Sweep(axes=("push", "slope"), trials=1, seconds=4.5, push_after=2.0, judge_seconds=1.5,
-                             push_forces=(0.0, 400.0), slopes=(-11.0, 11.0))
+    sweep = robustness.Sweep(axes=("push", "slope"), trials=1, seconds=4.5, push_after=2.0,
+                             bar=judge.RobustnessBar(judge_seconds=1.5), push_forces=(0.0, 400.0), slopes=(-11.0, 11.0))
     # the config's own k_phr, so the program is the same; the results must still record the change
     results, sim = robustness.sweep("cassie", tmp_path, sweep, dt=0.002, settings={"regulators.k_phr": "0.3"})
     rows = {(r["level"], r["direction"]): r for r in results["cells"]["push"]}

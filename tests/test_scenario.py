@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from mjx_cascade import evaluate, scenario
+from mjx_cascade import judge, scenario
 from mjx_cascade.config import ConfigError
 from conftest import DATA, ROOT, benchmark_script
 
@@ -82,7 +82,7 @@ def _profile(x):
 
 
 def test_tracking_judges_every_segment_of_four_seconds_or_more():
-    m = evaluate.tracking_metrics(_tracking_trajectory(_profile))
+    m = judge.walking(_tracking_trajectory(_profile))
     judged = [s for s in m["segments"] if "within_bounds" in s]
     # [0, 2) is too short; [2, 6) is exactly 4 s and [6, 12) longer: both judged, from 2 s after their start
     assert [(round(s["t_start"], 6), s["t_end"]) for s in judged] == [(2.0, 6.0), (6.0, 12.0)]
@@ -91,10 +91,10 @@ def test_tracking_judges_every_segment_of_four_seconds_or_more():
 
 
 def test_tracking_fails_on_velocity_error_and_on_a_fall():
-    slow = evaluate.tracking_metrics(_tracking_trajectory(_profile, error=(-0.15, 0.0)))
+    slow = judge.walking(_tracking_trajectory(_profile, error=(-0.15, 0.0)))
     assert not slow["fell"] and not slow["passed"]
     assert all(abs(s["vx_mae"] - 0.15) < 0.02 for s in slow["segments"] if "vx_mae" in s)
-    fallen = evaluate.tracking_metrics(_tracking_trajectory(_profile, height=0.5))
+    fallen = judge.walking(_tracking_trajectory(_profile, height=0.5))
     assert fallen["fell"] and fallen["fall_time"] == pytest.approx(0.01) and not fallen["passed"]
 
 
@@ -120,3 +120,14 @@ def test_drawn_profiles_are_scenarios_within_their_ranges_and_reproducible(tmp_p
                "--vy", "-0.3", "0.3", "--heading-step", "0.5", "--out", str(tmp_path / "c")])
     for p in sorted((tmp_path / "c").iterdir()):
         assert json.loads(p.read_text()) == json.loads((ROOT / "benchmarks" / "scenarios" / p.name).read_text())
+
+
+def test_a_summary_line_gives_the_worst_judged_errors():
+    from mjx_cascade import evaluate
+
+    m = judge.walking(_tracking_trajectory(_profile, error=(0.05, -0.02)))
+    m["scenario"] = {"name": "s"}
+    line = evaluate.verdict(m)
+    judged = [s for s in m["segments"] if "within_bounds" in s]
+    assert line["worst"]["vx"] == max(s["vx_mae"] for s in judged) and 0.04 < line["worst"]["vx"] < 0.06
+    assert line["worst"]["vy"] == max(s["vy_mae"] for s in judged) and line["passed"]

@@ -1,49 +1,115 @@
-"""Trained policies shipped with the package: `<robot>.npz` (flat parameters), `<robot>.json`
-(the checkpoint metadata: training config, seed, generations, physics steps, wall-clock), and the
-run's learning curve (`<robot>_metrics.jsonl`, `<robot>_learning.png`, Fig. 6)."""
+"""Trained policies as directories of what training wrote, and the revisions made after it.
+
+A policy directory holds:
+- `params.npz`: the flat parameters (`params`), exactly as the checkpoint held them;
+- `record.json`: the checkpoint's record (the config it trained with, generations, physics
+  steps, wall-clock, devices, versions), as training wrote it;
+- `metrics.jsonl` and `learning_curve.png`: the run's per-generation metrics and Fig. 6;
+- `revisions.json` (optional): controller settings changed after training, each with its reason
+  and date, written by `revise` and never by hand.
+
+`load` gives the parameters with the config they run with: the record's config (brought to the
+current form by `config.migrate`) with the revisions applied in order. The policies that ship
+with the package are the directories beside this file, one per robot.
+"""
 
 from __future__ import annotations
 
+import datetime
 import importlib.resources
 import json
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from mjx_cascade.config import ConfigError
+from mjx_cascade import checkpoint
+from mjx_cascade.config import ROBOTS, Config, ConfigError, check_controller_settings, from_dict, get, need
+
+PARAMS, RECORD, METRICS, CURVE, REVISIONS = "params.npz", "record.json", "metrics.jsonl", "learning_curve.png", "revisions.json"
 
 
-def load(robot: str) -> tuple[dict, np.ndarray]:
-    """`(metadata, flat parameters)` of the shipped policy for `robot`."""
-    root = importlib.resources.files(__name__)
-    params, meta = root.joinpath(f"{robot}.npz"), root.joinpath(f"{robot}.json")
-    if not (params.is_file() and meta.is_file()):
-        raise ConfigError(f"no trained {robot} policy ships with this version; pass --checkpoint DIR")
-    with params.open("rb") as f:
-        flat = np.load(f)["params"].astype(np.float32)
-    return json.loads(meta.read_text()), flat
+class Policy(NamedTuple):
+    params: np.ndarray  # [D] float32
+    record: dict  # what training wrote
+    revisions: list  # settings changed after training, oldest first
+    config: Config  # the record's config with the revisions applied: what the policy runs with
+
+    @property
+    def generation(self) -> int:
+        return int(self.record["generation"])
 
 
-def export(run: str | Path, robot: str, dest: str | Path | None = None) -> Path:
-    """Ship the latest checkpoint of training run `run` as `<robot>.npz`, `.json` and `_learning.png`.
+def shipped(robot: str) -> Path:
+    """The directory of the policy that ships for `robot`."""
+    need(robot in ROBOTS, f"unknown robot {robot!r}; choose from {', '.join(ROBOTS)}")
+    return Path(str(importlib.resources.files(__name__).joinpath(robot)))
 
-    `dest` defaults to this package. The learning curve (Fig. 6) is drawn from the run's
-    `metrics.jsonl` up to the checkpoint's generation.
-    """
-    from mjx_cascade import checkpoint, plots
 
-    run = Path(run)
-    meta, params = checkpoint.read(run)
-    checkpoint.check_robot(meta, robot)
-    dest = Path(dest) if dest else Path(str(importlib.resources.files(__name__)))
+def is_policy_dir(path: Path) -> bool:
+    return (path / PARAMS).is_file() and (path / RECORD).is_file()
+
+
+def read(path: str | Path) -> tuple[dict, np.ndarray]:
+    """`(record, params)` of a policy directory, or of a run's latest checkpoint."""
+    path = Path(path)
+    if not is_policy_dir(path):
+        return checkpoint.read(path)
+    try:
+        record = json.loads((path / RECORD).read_text())
+        with np.load(path / PARAMS) as f:
+            params = np.asarray(f["params"], dtype=np.float32)
+    except (OSError, ValueError, KeyError) as e:
+        raise ConfigError(f"{path} holds no readable policy ({type(e).__name__})") from None
+    need(isinstance(record, dict) and record.get("format") in checkpoint.READABLE, f"{path} is not an mjx_cascade policy")
+    return record, params
+
+
+def load(source: str | Path) -> Policy:
+    """The policy a robot ships with (`source` a robot's name), in a policy directory, or at a run's
+    latest checkpoint, with the config it runs with."""
+    path = shipped(str(source)) if str(source) in ROBOTS else Path(source)
+    if str(source) in ROBOTS and not is_policy_dir(path):
+        raise ConfigError(f"no trained {source} policy ships with this version; pass --checkpoint DIR")
+    record, params = read(path)
+    revisions = json.loads((path / REVISIONS).read_text()) if (path / REVISIONS).is_file() else []
+    config = from_dict(record["config"])
+    for revision in revisions:
+        config = config.override(**revision["settings"])
+    return Policy(params, record, revisions, config)
+
+
+def export(run: str | Path, dest: str | Path) -> Path:
+    """Write the latest checkpoint of training run `run` as a policy directory `dest`: its
+    parameters and record, and the run's metrics up to that generation with their learning curve."""
+    from mjx_cascade import plots
+
+    run, dest = Path(run), Path(dest)
+    record, params = checkpoint.read(run)
     dest.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(dest / f"{robot}.npz", params=np.asarray(params, np.float32))
-    meta = {**meta, "params_sha256": checkpoint.params_sha256(params)}
-    (dest / f"{robot}.json").write_text(json.dumps(meta, indent=1) + "\n")
-    rows = [line for line in (run / "metrics.jsonl").read_text().splitlines()
-            if line and json.loads(line)["generation"] <= meta["generation"]]
-    curve = dest / f"{robot}_metrics.jsonl"
-    curve.write_text("".join(f"{line}\n" for line in rows))
-    plots.learning_curve(curve, dest / f"{robot}_learning.png",
-                         title=f"{robot}: {meta['generation']} generations, {meta['physics_steps']:.3g} physics steps")
+    np.savez_compressed(dest / PARAMS, params=np.asarray(params, np.float32))
+    (dest / RECORD).write_text(json.dumps(record, indent=1) + "\n")
+    rows = [line for line in (run / METRICS).read_text().splitlines()
+            if line and json.loads(line)["generation"] <= record["generation"]]
+    (dest / METRICS).write_text("".join(f"{line}\n" for line in rows))
+    plots.learning_curve(dest / METRICS, dest / CURVE, title=f"{record['robot']}: {record['generation']} "
+                         f"generations, {record['physics_steps']:.3g} physics steps")
     return dest
+
+
+def revise(directory: str | Path, settings: dict[str, Any], reason: str, date: str | None = None) -> dict:
+    """Record that the policy in `directory` runs with `settings` changed after training, and why.
+
+    Only controller settings may change (`config.check_controller_settings`); the parameters do
+    not. The revision is appended to `revisions.json` with the parameters' hash and the date.
+    """
+    directory = Path(directory)
+    check_controller_settings(settings)
+    need(bool(reason.strip()), "a revision needs its reason")
+    policy = load(directory)
+    revised = policy.config.override(**settings)  # refuses values out of range before anything is written
+    revision = {"settings": {key: get(revised, key) for key in settings}, "reason": reason.strip(),
+                "date": date or datetime.date.today().isoformat(),
+                "params_sha256": checkpoint.params_sha256(policy.params)}
+    (directory / REVISIONS).write_text(json.dumps(policy.revisions + [revision], indent=1) + "\n")
+    return revision

@@ -22,12 +22,8 @@ import mujoco
 import numpy as np
 
 from mjx_cascade import gait
-from mjx_cascade.config import Config, ConfigError
+from mjx_cascade.config import ConfigError, PhysicsConfig
 from mjx_cascade.robots import linkage, scene
-
-# What the controller does with each (role, leg joint) slot.
-HOLD, LEARNED, TOE, TORSO = 0, 1, 2, 3
-
 
 @dataclasses.dataclass(frozen=True)
 class RobotDefinition:
@@ -70,7 +66,6 @@ class Robot:
     ctrl_high: np.ndarray  # [2, J]
     torque_limit: np.ndarray  # [2, J] N m
     mirror: np.ndarray  # [J] +-1: right-leg angle = mirror * left-leg angle in a mirrored pose
-    kind: np.ndarray  # [2, J] HOLD / LEARNED / TOE / TORSO per (role, joint)
     learned_role: np.ndarray  # [N]
     learned_joint: np.ndarray  # [N]
     learned_low: np.ndarray  # [N, K] role coordinates, K = 1 (one range per joint) or M - 1
@@ -142,85 +137,62 @@ def model_path(definition: RobotDefinition, path: str | None) -> Path | None:
     return p
 
 
-def build(definition: RobotDefinition, cfg: Config, model: str | None = None,
+def build(definition: RobotDefinition, physics: PhysicsConfig, model: str | None = None,
           terrain: dict | Sequence[dict] | None = None) -> Robot:
-    """Compile the model for `cfg.physics` (and a scenario terrain, or several: `scene.compile_model`)
+    """Compile the model for `physics` (and a scenario terrain, or several: `scene.compile_model`)
     and derive the controller's arrays."""
     spec = definition.load_spec(model_path(definition, model))
-    model = scene.compile_model(spec, definition, cfg.physics, terrain or {"type": "flat"})
+    model = scene.compile_model(spec, definition.feet, physics, terrain or {"type": "flat"})
     return derive(definition, model)
 
 
 def derive(definition: RobotDefinition, model: mujoco.MjModel) -> Robot:
+    """The controller's index and sign arrays, derived from `model` at the definition's nominal pose."""
     d = definition
     joint_index = {name: i for i, name in enumerate(d.joints)}
-    act = np.array([[model.actuator(n).id for n in side] for side in d.motors])
-    jnt = model.actuator_trnid[act, 0]
-    gear = model.actuator_gear[act, 0]
-    ctrl = model.actuator_ctrlrange[act]
     nominal = d.nominal(model)
-
     data = mujoco.MjData(model)
     data.qpos[:] = nominal
     data.qpos[:2] = 0.0
     data.qpos[3:7] = (1, 0, 0, 0)
     mujoco.mj_kinematics(model, data)
-    mirror = _mirror_signs(data, jnt)
-
-    roles = {"stance": gait.STANCE, "swing": gait.SWING}
-    learned_role = np.array([roles[r] for r, _ in d.learned])
-    learned_joint = np.array([joint_index[j] for _, j in d.learned])
-    hip_roll, hip_pitch, hip_yaw = (joint_index[j] for j in ("hip_roll", "hip_pitch", "hip_yaw"))
-    toe = np.array([joint_index[j] for j in d.toe_joints])
-
-    kind = np.full((2, len(d.joints)), HOLD)
-    kind[gait.STANCE, [hip_roll, hip_pitch]] = TORSO
-    kind[:, toe] = TOE
-    kind[learned_role, learned_joint] = LEARNED
-
-    qpos_adr = model.jnt_qposadr[jnt]
-    leg_nominal = nominal[qpos_adr]  # absolute [2, J]
+    motors = _motors(model, d)
+    mirror = _mirror_signs(data, motors["jnt"])
+    qpos_adr, dof_adr = model.jnt_qposadr[motors["jnt"]], model.jnt_dofadr[motors["jnt"]]
     side_sign = np.stack([np.ones_like(mirror), mirror])  # role value * side_sign = absolute
-    nominal_role = np.stack([leg_nominal[0], leg_nominal[0]])  # left convention, both roles
-    ranges = _ranges(d.ranges)
-
-    pelvis = model.body(d.pelvis).id
-    feet = np.array([model.body(f).id for f in d.feet])
-    dof_adr = model.jnt_dofadr[jnt]
-    fd = _foot_kinematics(model, data, feet, pelvis, qpos_adr, dof_adr, side_sign, hip_roll, hip_pitch, hip_yaw,
-                          joint_index["knee"], toe)
-    foot_force_adr = np.array([model.sensor_adr[model.sensor(f"{d.feet[leg]}-grf").id] for leg in range(2)])
-
+    leg_nominal = nominal[qpos_adr]  # absolute [2, J]
+    hips = {j: joint_index[j] for j in ("hip_roll", "hip_pitch", "hip_yaw", "knee")}
+    toe = np.array([joint_index[j] for j in d.toe_joints])
+    pelvis, feet = model.body(d.pelvis).id, np.array([model.body(f).id for f in d.feet])
+    fd = _foot_kinematics(model, data, feet, pelvis, qpos_adr, dof_adr, side_sign, hips["hip_roll"],
+                          hips["hip_pitch"], hips["hip_yaw"], hips["knee"], toe)
     return Robot(
-        definition=d,
-        model=model,
-        qpos_adr=qpos_adr,
-        dof_adr=dof_adr,
-        actuator=act,
-        gear=gear,
-        ctrl_low=ctrl[..., 0],
-        ctrl_high=ctrl[..., 1],
-        torque_limit=gear * np.maximum(np.abs(ctrl[..., 0]), np.abs(ctrl[..., 1])),
-        mirror=mirror,
-        kind=kind,
-        learned_role=learned_role,
-        learned_joint=learned_joint,
-        learned_low=ranges[..., 0],
-        learned_high=ranges[..., 1],
-        kp=np.array(d.kp, dtype=np.float64),
-        kd=np.array(d.kd, dtype=np.float64),
-        nominal_qpos=nominal,
-        nominal_role=nominal_role,
-        pelvis_body=pelvis,
-        foot_body=feet,
-        foot_force_adr=foot_force_adr,
-        hip_roll=hip_roll,
-        hip_pitch=hip_pitch,
-        hip_yaw=hip_yaw,
-        knee=joint_index["knee"],
-        toe=toe,
-        **fd,
+        definition=d, model=model, qpos_adr=qpos_adr, dof_adr=dof_adr, actuator=motors["act"], gear=motors["gear"],
+        ctrl_low=motors["low"], ctrl_high=motors["high"], torque_limit=motors["limit"], mirror=mirror,
+        **_learned(d, joint_index),
+        kp=np.array(d.kp, dtype=np.float64), kd=np.array(d.kd, dtype=np.float64),
+        nominal_qpos=nominal, nominal_role=np.stack([leg_nominal[0], leg_nominal[0]]),  # left convention, both roles
+        pelvis_body=pelvis, foot_body=feet,
+        foot_force_adr=np.array([model.sensor_adr[model.sensor(f"{d.feet[leg]}-grf").id] for leg in range(2)]),
+        **hips, toe=toe, **fd,
     )
+
+
+def _motors(model: mujoco.MjModel, d: RobotDefinition) -> dict:
+    """Per leg motor `[2, J]`: actuator ids, joints, gears, control ranges and torque limits."""
+    act = np.array([[model.actuator(n).id for n in side] for side in d.motors])
+    gear, ctrl = model.actuator_gear[act, 0], model.actuator_ctrlrange[act]
+    return {"act": act, "jnt": model.actuator_trnid[act, 0], "gear": gear, "low": ctrl[..., 0], "high": ctrl[..., 1],
+            "limit": gear * np.maximum(np.abs(ctrl[..., 0]), np.abs(ctrl[..., 1]))}
+
+
+def _learned(d: RobotDefinition, joint_index: dict) -> dict:
+    """The learned joints' roles, leg joints and coefficient ranges (role coordinates)."""
+    roles = {"stance": gait.STANCE, "swing": gait.SWING}
+    ranges = _ranges(d.ranges)
+    return {"learned_role": np.array([roles[r] for r, _ in d.learned]),
+            "learned_joint": np.array([joint_index[j] for _, j in d.learned]),
+            "learned_low": ranges[..., 0], "learned_high": ranges[..., 1]}
 
 
 def _ranges(ranges) -> np.ndarray:

@@ -31,7 +31,7 @@ def nominal(model: mujoco.MjModel) -> np.ndarray:
     return model.key("home").qpos.copy()
 
 
-CASSIE = RobotDefinition(
+DEFINITION = RobotDefinition(
     name="cassie",
     joints=("hip_roll", "hip_yaw", "hip_pitch", "knee", "toe_pitch"),
     motors=(tuple(f"left-{j}" for j in LEG), tuple(f"right-{j}" for j in LEG)),

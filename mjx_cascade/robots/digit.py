@@ -92,7 +92,7 @@ def _lowest_foot_point(model: mujoco.MjModel, qpos: np.ndarray) -> float:
     return float(lowest)
 
 
-DIGIT = RobotDefinition(
+DEFINITION = RobotDefinition(
     name="digit",
     joints=("hip_roll", "hip_yaw", "hip_pitch", "knee", "toe_a", "toe_b",
             "shoulder_roll", "shoulder_pitch", "shoulder_yaw", "elbow"),

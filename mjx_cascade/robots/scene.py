@@ -17,29 +17,29 @@
 
 from __future__ import annotations
 
+import json
 import math
-from typing import TYPE_CHECKING, NamedTuple, Sequence
+from typing import NamedTuple, Sequence
 
 import mujoco
 import numpy as np
 
 from mjx_cascade.config import PhysicsConfig
 
-if TYPE_CHECKING:
-    from mjx_cascade.robots.base import RobotDefinition
-
 FLAT_RADIUS = 1.0  # m of level ground around the start
 HFIELD_EXTENT = ((-5.0, 25.0), (-10.0, 10.0))  # x and y ranges covered by a height field, m
 HFIELD_CELL = 0.04  # m
 
 
-def compile_model(spec: mujoco.MjSpec, robot: "RobotDefinition", physics: PhysicsConfig,
+def compile_model(spec: mujoco.MjSpec, feet: tuple[str, str], physics: PhysicsConfig,
                   terrain: dict | Sequence[dict]) -> mujoco.MjModel:
+    """The robot's MJCF `spec` with the ground (or terrains), foot sensors and physics options;
+    `feet` names the foot bodies (left, right)."""
     _strip_visuals(spec)
     for sensor in list(spec.sensors):
         spec.delete(sensor)
-    foot_geoms = _feet_only_collisions(spec, robot.feet)
-    for foot, geoms in zip(robot.feet, foot_geoms):
+    foot_geoms = _feet_only_collisions(spec, feet)
+    for foot, geoms in zip(feet, foot_geoms):
         _add_touch_sensor(spec, foot, geoms)
     _add_ground(spec, terrain)
     spec.option.timestep = physics.dt
@@ -110,6 +110,16 @@ def _geoms_box(geoms: list) -> tuple[np.ndarray, np.ndarray]:
         points.append(ends + r)
     pts = np.concatenate(points)
     return pts.min(axis=0), pts.max(axis=0)
+
+
+def terrain_key(terrain: dict) -> str:
+    """A terrain's identity, for grouping scenarios that walk on the same one."""
+    return json.dumps(terrain, sort_keys=True)
+
+
+def distinct(terrains: Sequence[dict]) -> list[dict]:
+    """The terrains of a batch, each once, in the order they first appear."""
+    return list({terrain_key(t): t for t in terrains}.values())
 
 
 def ground_height(terrain: dict, x, y, xp=np):
