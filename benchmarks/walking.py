@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True)
     ap.add_argument("--checkpoint", metavar="DIR")
     ap.add_argument("--model", metavar="PATH")
-    ap.add_argument("--dt", type=float, default=0.0005, help="physics time step of the bar, s")
+    ap.add_argument("--dt", type=float, default=config.PAPER_DT, help="physics time step of the bar, s (default: the paper's)")
     args = ap.parse_args(argv)
     try:
         model = robots.model_path(robots.get(args.robot), args.model)

@@ -8,6 +8,7 @@ anything is written.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 from pathlib import Path
@@ -20,8 +21,8 @@ EXIT_USAGE = 2
 
 
 class Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, no usage dump
-        raise ConfigError(message)
+    def error(self, message: str) -> None:  # one line, no usage dump, and where to look
+        raise ConfigError(f"{message} (see {self.prog} --help)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,7 +39,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def build_parser() -> Parser:
-    p = Parser(prog="mjx-cascade", description="RL cascade motion policies for bipedal walking on MJX.")
+    p = Parser(prog="mjx-cascade", description="RL cascade motion policies for bipedal walking on MJX.",
+               epilog="Each command has its own --help with examples.")
+    p.add_argument("--version", action="version", version=f"mjx-cascade {mjx_cascade.__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     for add in (_add_info, _add_train, _add_eval, _add_robustness, _add_revise):
         add(sub)
@@ -46,69 +49,105 @@ def build_parser() -> Parser:
 
 
 ROBOT_CHOICES = list(config_lib.ROBOTS)
-MODEL_HELP = "robot MJCF (Digit: digit-v3.xml)"
+MODEL_HELP = "robot MJCF (required for Digit: its digit-v3.xml; Cassie: the menagerie's by default)"
 POLICY_HELP = "a run's --out, its checkpoints/, or a policy directory (default: the shipped policy)"
+IMPL_HELP = "MJX backend: jax, warp (NVIDIA GPUs) or auto, warp where it can run (default: auto)"
+
+
+def _command(sub, name: str, help: str, examples: str) -> Parser:
+    """A subcommand whose --help ends with its examples."""
+    return sub.add_parser(name, help=help, description=help[0].upper() + help[1:] + ".",
+                          epilog="examples:\n" + examples, formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+@functools.cache
+def _default(key: str) -> str:
+    """Each robot's setting for `key`, for help texts: "cassie 320, digit 50"."""
+    values = {r: config_lib.get(config_lib.robot_config(r), key) for r in ROBOT_CHOICES}
+    if len(set(map(repr, values.values()))) == 1:
+        return f"default {next(iter(values.values()))}"
+    return "default " + ", ".join(f"{r} {v}" for r, v in values.items())
 
 
 def _add_info(sub) -> None:
-    info = sub.add_parser("info", help="policy and robot facts, or a checkpoint's")
+    info = _command(sub, "info", "policy and robot facts, or a checkpoint's",
+                    "  mjx-cascade info --robot cassie\n  mjx-cascade info --checkpoint runs/cassie --json\n")
     src = info.add_mutually_exclusive_group(required=True)
-    src.add_argument("--robot", choices=ROBOT_CHOICES)
+    src.add_argument("--robot", choices=ROBOT_CHOICES, help="the robot's policy shape and settings")
     src.add_argument("--checkpoint", metavar="DIR", help="a run's --out or a policy directory")
     info.add_argument("--model", metavar="PATH", help=MODEL_HELP)
-    info.add_argument("--json", action="store_true")
+    info.add_argument("--json", action="store_true", help="print the facts as JSON")
     info.set_defaults(func=cmd_info)
 
 
 def _add_train(sub) -> None:
-    train = sub.add_parser("train", help="train a policy with ES; rerun to resume")
+    train = _command(sub, "train", "train a policy with ES; rerun the same command to resume",
+                     "  mjx-cascade train --robot cassie --out runs/cassie\n"
+                     "  mjx-cascade train --robot cassie --out runs/smoke --generations 2 --population 4 "
+                     "--episode-seconds 0.5\n"
+                     "  mjx-cascade train --robot digit --model PATH/digit-v3.xml --out runs/digit --set es.sigma=0.05\n")
     src = train.add_mutually_exclusive_group(required=True)
     src.add_argument("--config", metavar="FILE", help="YAML config: `robot` plus overrides of its settings")
-    src.add_argument("--robot", choices=ROBOT_CHOICES)
-    train.add_argument("--out", required=True, metavar="DIR")
+    src.add_argument("--robot", choices=ROBOT_CHOICES, help="train with the robot's shipped config")
+    train.add_argument("--out", required=True, metavar="DIR",
+                       help="run directory: checkpoints/, metrics.jsonl, learning_curve.png")
     train.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     train.add_argument("--init", metavar="POLICY",
                        help="warm-start from a policy: a run's --out or a policy directory "
                             "(a run that has a checkpoint resumes instead)")
-    train.add_argument("--generations", type=int)
-    train.add_argument("--population", type=int)
-    train.add_argument("--episode-seconds", type=float)
-    train.add_argument("--seed", type=int)
-    train.add_argument("--checkpoint-every", type=int)
-    train.add_argument("--impl", choices=config_lib.IMPLS)
+    for flag, key, kind, what in TRAIN_FLAGS:
+        train.add_argument(flag, type=kind, help=f"{what}; sets {key} ({_default(key)})")
+    train.add_argument("--impl", choices=config_lib.IMPLS, help=IMPL_HELP + "; sets physics.impl")
     train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="any config setting, e.g. --set es.sigma=0.05 (repeatable)")
     train.add_argument("--accept-changes", action="store_true",
                        help="resume a run whose config differs from its checkpoint's (the change is recorded)")
-    train.add_argument("--no-progress", action="store_true")
+    train.add_argument("--no-progress", action="store_true", help="no progress bar (the default off a terminal)")
     train.set_defaults(func=cmd_train)
+
+
+# the shortcuts for the settings changed most: (flag, config key, type, help)
+TRAIN_FLAGS = (
+    ("--generations", "train.generations", int, "generations to train to"),
+    ("--population", "es.population", int, "ES population, antithetic pairs included (even)"),
+    ("--episode-seconds", "episode.seconds", float, "length of each training episode, s"),
+    ("--seed", "seed", int, "seed of the run's every random draw"),
+    ("--checkpoint-every", "train.checkpoint_every", int, "generations between checkpoints"),
+)
 
 
 def _add_simulation_args(parser: argparse.ArgumentParser) -> None:
     """The policy, model, output and physics options `eval` and `robustness` share."""
-    parser.add_argument("--robot", required=True, choices=ROBOT_CHOICES)
+    parser.add_argument("--robot", choices=ROBOT_CHOICES,
+                        help="the robot (default: the --checkpoint's; with neither, required)")
     parser.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
     parser.add_argument("--model", metavar="PATH", help=MODEL_HELP)
-    parser.add_argument("--out", required=True, metavar="DIR")
-    parser.add_argument("--dt", type=float, help="physics time step, s (default: the training config's)")
-    parser.add_argument("--impl", choices=config_lib.IMPLS)
-    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--out", required=True, metavar="DIR", help="directory for the results (created)")
+    parser.add_argument("--dt", type=float, help=f"physics time step, s (default {config_lib.PAPER_DT}, the "
+                                                   "paper's 2 kHz loop, unless --set physics.dt)")
+    parser.add_argument("--impl", choices=config_lib.IMPLS, help=IMPL_HELP)
+    parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="change a controller or physics setting of the policy's config (gait.*, "
                              "regulators.*, physics.*), e.g. --set regulators.k_phr=0.4 (repeatable)")
 
 
 def _add_eval(sub) -> None:
-    ev = sub.add_parser("eval", help="run a scenario with a trained policy")
+    ev = _command(sub, "eval", "run scenarios with a trained policy: metrics, plots and video",
+                  "  mjx-cascade eval --robot cassie --scenario speed_profile --out eval/speed\n"
+                  "  mjx-cascade eval --checkpoint runs/cassie --scenario push slope_up my.json --out eval/run\n")
     _add_simulation_args(ev)
-    ev.add_argument("--scenario", required=True, nargs="+", metavar="FILE",
-                    help="one or more; several run in one batch and write into --out/<name>/")
-    ev.add_argument("--no-video", action="store_true", help="skip rendering video.gif")
+    ev.add_argument("--scenario", required=True, nargs="+", metavar="NAME|FILE",
+                    help="scenario files or the names of shipped ones (speed_profile, push, slope_up, "
+                         "slope_down, rough, limit_cycle); several run in one batch into --out/<name>/")
+    ev.add_argument("--no-video", action="store_true", help="skip rendering the video")
     ev.set_defaults(func=cmd_eval)
 
 
 def _add_robustness(sub) -> None:
-    rob = sub.add_parser("robustness", help="success rates against pushes, slopes, rough ground and mass error")
+    rob = _command(sub, "robustness", "success rates against pushes, slopes, rough ground and mass error",
+                   "  mjx-cascade robustness --robot cassie --out results/robustness\n"
+                   "  mjx-cascade robustness --checkpoint runs/cassie --axes push slope --trials 4 --out rob\n")
     _add_simulation_args(rob)
     rob.add_argument("--axes", nargs="+", metavar="AXIS", help="any of push slope rough mass (default: all)")
     rob.add_argument("--trials", type=int, help="trials per cell (default 10)")
@@ -117,7 +156,9 @@ def _add_robustness(sub) -> None:
 
 
 def _add_revise(sub) -> None:
-    rev = sub.add_parser("revise", help="record a controller setting changed after training, with its reason")
+    rev = _command(sub, "revise", "record a controller setting changed after training, with its reason",
+                   "  mjx-cascade revise --policy runs/cassie/policy --set regulators.k_phr=0.4 "
+                   "--reason \"val: 20/20 vs 18/20\"\n")
     rev.add_argument("--policy", required=True, metavar="DIR", help="a policy directory (params.npz, record.json)")
     rev.add_argument("--set", action="append", required=True, metavar="KEY=VALUE",
                      help="the controller setting the policy runs with from now on (repeatable)")
@@ -178,11 +219,10 @@ def cmd_info(args: argparse.Namespace) -> int:
 def training_config(args: argparse.Namespace) -> config_lib.Config:
     cfg = config_lib.load(args.config) if args.config else config_lib.robot_config(args.robot)
     overrides = {}
-    for flag, key in (("generations", "train.generations"), ("population", "es.population"),
-                      ("episode_seconds", "episode.seconds"), ("seed", "seed"),
-                      ("checkpoint_every", "train.checkpoint_every"), ("impl", "physics.impl")):
-        if getattr(args, flag) is not None:
-            overrides[key] = getattr(args, flag)
+    for flag, key in [(f, k) for f, k, _, _ in TRAIN_FLAGS] + [("--impl", "physics.impl")]:
+        value = getattr(args, flag[2:].replace("-", "_"))
+        if value is not None:
+            overrides[key] = value
     overrides.update(config_lib.parse_assignments(args.set))
     return cfg.override(**overrides) if overrides else cfg
 
@@ -216,11 +256,18 @@ def _headless_gl() -> None:
 
 
 def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path]:
-    """Validate `--dt`, `--model` and `--out` of eval and robustness; returns `(model path, out)`."""
-    from mjx_cascade import _xla, robots
+    """Validate `--robot` (or take it from `--checkpoint`), `--dt`, `--model` and `--out` of eval
+    and robustness; returns `(model path, out)`."""
+    from mjx_cascade import _xla, policies, robots
 
+    if args.robot is None:
+        if args.checkpoint is None:
+            raise ConfigError("give --robot, or a --checkpoint to take the robot from (see --help)")
+        args.robot = policies.read(args.checkpoint)[0]["robot"]
     if args.dt is not None and args.dt <= 0:
         raise ConfigError("--dt must be positive")
+    if args.dt is None and not any(a.startswith("physics.dt=") for a in args.set):
+        args.dt = config_lib.PAPER_DT
     model = robots.model_path(robots.get(args.robot), args.model)
     out = Path(args.out)
     if out.exists() and not out.is_dir():

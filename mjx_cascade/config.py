@@ -26,6 +26,7 @@ VERSION = 2  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp")
+PAPER_DT = 0.0005  # s: the paper's 2 kHz loop; training steps at `physics.dt`, evaluation here by default
 FIRST_SWING = ("random", "command")
 OPTIMIZERS = ("adam", "sgd")
 

@@ -13,6 +13,7 @@ and act on the pelvis. The robot starts standing at the origin facing +x.
 from __future__ import annotations
 
 import dataclasses
+import importlib.resources
 import json
 import math
 from pathlib import Path
@@ -64,10 +65,28 @@ class Scenario:
         }
 
 
+def shipped() -> list[str]:
+    """The names of the scenarios that ship with the package (`configs/scenarios/`)."""
+    return sorted(p.name[:-5] for p in _shipped_dir().iterdir() if p.name.endswith(".json"))
+
+
+def _shipped_dir():
+    return importlib.resources.files("mjx_cascade.configs").joinpath("scenarios")
+
+
+def resolve(name: str | Path) -> Path:
+    """A scenario file: `name` itself when it is a file, else the shipped scenario of that name
+    (`speed_profile`), so the shipped ones work from any directory."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    if str(name) in shipped():
+        return Path(str(_shipped_dir().joinpath(f"{name}.json")))
+    raise ConfigError(f"scenario file not found: {name} (shipped scenarios: {', '.join(shipped())})")
+
+
 def load(path: str | Path) -> Scenario:
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"scenario file not found: {path}")
+    path = resolve(path)
     try:
         data = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as e:

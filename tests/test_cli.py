@@ -362,3 +362,47 @@ def test_checkpoints_for_another_robot_or_policy_are_refused(smoke, tmp_path):
     res = cli("eval", "--robot", "digit", "--model", DIGIT_MODEL, "--checkpoint", out,
               "--scenario", DATA / "short.json", "--out", tmp_path / "e")
     assert res.returncode == 2 and "for robot 'cassie'" in res.stderr and not (tmp_path / "e").exists()
+
+
+def test_version_and_help_for_every_option_with_examples_per_command():
+    from mjx_cascade import cli as cli_lib
+
+    res = cli("--version")
+    assert res.returncode == 0 and res.stdout.strip() == f"mjx-cascade {__import__('mjx_cascade').__version__}"
+    parser = cli_lib.build_parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    assert set(commands) == {"info", "train", "eval", "robustness", "revise"}
+    for name, sub in commands.items():
+        assert "examples:" in sub.epilog and f"mjx-cascade {name}" in sub.epilog, name
+        for action in sub._actions:
+            assert action.help, (name, action.dest)
+    train_help = commands["train"].format_help()
+    assert "(default cassie 320, digit 50)" in " ".join(train_help.split())  # defaults from the configs
+
+
+def test_a_shipped_scenario_is_named_from_any_directory(tmp_path, monkeypatch):
+    from mjx_cascade import scenario
+
+    monkeypatch.chdir(tmp_path)
+    assert scenario.load("speed_profile") == scenario.load(ROOT / "configs" / "scenarios" / "speed_profile.json")
+    with pytest.raises(config.ConfigError, match="shipped scenarios: limit_cycle, push"):
+        scenario.load("speed_profil")
+
+
+def test_eval_takes_the_robot_from_the_checkpoint_and_runs_at_the_papers_step(tmp_path):
+    import argparse
+
+    from mjx_cascade import cli as cli_lib, policies
+
+    def resolved(**given):
+        args = argparse.Namespace(**{"robot": None, "checkpoint": None, "dt": None, "set": [], "model": None,
+                                     "out": tmp_path / "out", **given})
+        cli_lib._simulation_args(args)
+        return args
+
+    args = resolved(checkpoint=str(policies.shipped("digit")), model=DIGIT_MODEL)
+    assert args.robot == "digit" and args.dt == config.PAPER_DT == 0.0005
+    assert resolved(robot="cassie", set=["physics.dt=0.002"]).dt is None  # --set decides it
+    assert resolved(robot="cassie", dt=0.001).dt == 0.001
+    with pytest.raises(config.ConfigError, match="--robot, or a --checkpoint"):
+        resolved()
