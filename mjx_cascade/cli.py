@@ -61,9 +61,14 @@ def _command(sub, name: str, help: str, examples: str) -> Parser:
 
 
 @functools.cache
+def _robot_configs() -> dict[str, config_lib.Config]:
+    """Every robot's shipped config, read once for all help texts."""
+    return {r: config_lib.robot_config(r) for r in ROBOT_CHOICES}
+
+
 def _default(key: str) -> str:
     """Each robot's setting for `key`, for help texts: "cassie 320, digit 50"."""
-    values = {r: config_lib.get(config_lib.robot_config(r), key) for r in ROBOT_CHOICES}
+    values = {r: config_lib.get(cfg, key) for r, cfg in _robot_configs().items()}
     if len(set(map(repr, values.values()))) == 1:
         return f"default {next(iter(values.values()))}"
     return "default " + ", ".join(f"{r} {v}" for r, v in values.items())
@@ -255,9 +260,9 @@ def _headless_gl() -> None:
         os.environ["MUJOCO_GL"] = "egl"
 
 
-def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path]:
-    """Validate `--robot` (or take it from `--checkpoint`), `--dt`, `--model` and `--out` of eval
-    and robustness; returns `(model path, out)`."""
+def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path, dict]:
+    """Validate `--robot` (or take it from `--checkpoint`), `--dt`, `--set`, `--model` and `--out`
+    of eval and robustness; returns `(model path, out, settings)`."""
     from mjx_cascade import _xla, policies, robots
 
     if args.robot is None:
@@ -266,14 +271,15 @@ def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path]:
         args.robot = policies.read(args.checkpoint)[0]["robot"]
     if args.dt is not None and args.dt <= 0:
         raise ConfigError("--dt must be positive")
-    if args.dt is None and not any(a.startswith("physics.dt=") for a in args.set):
+    settings = config_lib.parse_assignments(args.set)
+    if args.dt is None and "physics.dt" not in settings:
         args.dt = config_lib.PAPER_DT
     model = robots.model_path(robots.get(args.robot), args.model)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} exists and is not a directory")
     _xla.enable_compilation_cache()
-    return (str(model) if model else None), out
+    return (str(model) if model else None), out, settings
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -282,10 +288,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from mjx_cascade import evaluate, scenario
 
     scenarios = [scenario.load(f) for f in args.scenario]
-    model, out = _simulation_args(args)
+    model, out, settings = _simulation_args(args)
     metrics = evaluate.evaluate(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
-                                dt=args.dt, impl=args.impl, video=not args.no_video,
-                                settings=config_lib.parse_assignments(args.set))
+                                dt=args.dt, impl=args.impl, video=not args.no_video, settings=settings)
     if args.json:
         print(json.dumps(metrics[0] if len(metrics) == 1 else metrics, indent=2))
         return 0
@@ -310,9 +315,9 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     given = {k: v for k, v in (("axes", args.axes and tuple(args.axes)), ("trials", args.trials),
                                ("seconds", args.seconds)) if v is not None}
     sweep = dataclasses.replace(robustness.Sweep(), **given)
-    model, out = _simulation_args(args)
+    model, out, settings = _simulation_args(args)
     results, _ = robustness.sweep(args.robot, out, sweep, checkpoint_dir=args.checkpoint, model_path=model,
-                                  dt=args.dt, impl=args.impl, settings=config_lib.parse_assignments(args.set))
+                                  dt=args.dt, impl=args.impl, settings=settings)
     if args.json:
         print(json.dumps({k: v for k, v in results.items() if k != "trials"}, indent=2))
     else:
