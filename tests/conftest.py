@@ -22,6 +22,17 @@ if os.environ.get("MENAGERIE_ROOT"):
     os.environ["MENAGERIE_ROOT"] = str(Path(os.environ["MENAGERIE_ROOT"]).resolve())
 
 
+# Files that compile a whole controller (20 to 60 s each) run first, so that under `pytest -n 2`
+# the two workers share them and then finish the quick files together (pyproject.toml keeps this
+# order with --no-loadscope-reorder).
+LONG_FIRST = ("test_smoke.py", "test_cli.py", "test_controller.py")
+
+
+def pytest_collection_modifyitems(items):
+    rank = {name: i for i, name in enumerate(LONG_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: file order otherwise
+
+
 def benchmark_script(name: str):
     """`benchmarks/<name>.py` as a module (the scripts are not a package)."""
     spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
