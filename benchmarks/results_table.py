@@ -3,7 +3,7 @@
     python benchmarks/results_table.py [--results benchmarks/results/walking_cpu]
 
 Prints one markdown row per result file in `SETS`: what the profiles are, the role they have
-played, passes, falls and the worst per-segment errors over the set. `tests/test_benchmarks.py`
+played, passes, falls and the worst per-segment errors over the set. `tests/test_readme.py`
 checks that the README holds exactly this table, so the two cannot drift apart.
 """
 

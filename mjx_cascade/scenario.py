@@ -80,9 +80,10 @@ def resolve(name: str | Path) -> Path:
     path = Path(name)
     if path.is_file():
         return path
-    if str(name) in shipped():
+    names = shipped()
+    if str(name) in names:
         return Path(str(_shipped_dir().joinpath(f"{name}.json")))
-    raise ConfigError(f"scenario file not found: {name} (shipped scenarios: {', '.join(shipped())})")
+    raise ConfigError(f"scenario file not found: {name} (shipped scenarios: {', '.join(names)})")
 
 
 def load(path: str | Path) -> Scenario:
