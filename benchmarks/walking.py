@@ -1,12 +1,13 @@
 """The walking bar on a set of profiles: one compact result file, no trajectories.
 
     python benchmarks/walking.py --robot cassie --scenario FILE [FILE ...] --out FILE.json
-        [--checkpoint DIR] [--model PATH] [--dt 0.0005]
+        [--checkpoint DIR] [--model PATH] [--dt 0.0005] [--simulator mjx|mujoco]
 
 Runs the policy (the shipped one unless `--checkpoint`) through every scenario in the evaluation's
-batches (`evaluate.runners`) and judges each with the walking bar (`judge.walking`). Writes
+batches (`evaluate.runners`), or with `--simulator mujoco` in MuJoCo's C engine one scenario at a
+time (`sim2sim.trajectories`), and judges each with the walking bar (`judge.walking`). Writes
 
-    {"robot", "date", "code_version", "device", "backend", "dt", "policy", "wall_clock_s",
+    {"robot", "date", "code_version", "simulator", "device", "backend", "dt", "policy", "wall_clock_s",
      "passed", "fell", "count", "scenarios": [{"scenario", "passed", "fell", "fall_time", "worst"}]}
 
 `worst` is the largest per-segment error in vx, vy (m/s) and heading (rad) over the judged segments.
@@ -25,7 +26,7 @@ from pathlib import Path
 import mjx_cascade  # noqa: F401  (sets the XLA CPU flag before JAX starts)
 import jax
 
-from mjx_cascade import _xla, config, evaluate, judge, robots, scenario
+from mjx_cascade import _xla, config, evaluate, judge, physics, robots, scenario, sim2sim
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,16 +40,27 @@ def code_version() -> str:
         return "unknown"
 
 
+def trajectories(cfg: config.Config, params, scenarios: list[scenario.Scenario], model_path: str | None,
+                 simulator: str):
+    """`(scenario, trajectory)` pairs from MJX in the evaluation's batches, or from MuJoCo C."""
+    if simulator == "mujoco":
+        for s, traj, _ in sim2sim.trajectories(cfg, params, scenarios, model_path):
+            yield s, traj
+        return
+    for runner in evaluate.runners(cfg, scenarios, model_path):
+        yield from zip(runner.scenarios, runner(params))
+
+
 def walking(robot: str, scenarios: list[scenario.Scenario], checkpoint: str | None, model_path: str | None,
-            dt: float) -> dict:
+            dt: float, simulator: str = "mjx") -> dict:
     cfg, found = evaluate.load_policy(robot, checkpoint, dt)
     start = time.perf_counter()
-    lines = {}
-    for runner in evaluate.runners(cfg, scenarios, model_path):
-        for s, traj in zip(runner.scenarios, runner(found.params)):
-            lines[s.name] = evaluate.verdict({"scenario": {"name": s.name}, **judge.walking(traj)})
+    lines = {s.name: evaluate.verdict({"scenario": {"name": s.name}, **judge.walking(traj)})
+             for s, traj in trajectories(cfg, found.params, scenarios, model_path, simulator)}
     rows = [lines[s.name] for s in scenarios]
+    simulated = sim2sim.SIMULATOR if simulator == "mujoco" else f"MJX ({physics.resolve_impl(cfg.physics.impl)})"
     return {"robot": robot, "date": datetime.date.today().isoformat(), "code_version": code_version(),
+            "simulator": simulated,
             "device": jax.devices()[0].device_kind, "backend": jax.default_backend(), "dt": cfg.physics.dt,
             "policy": evaluate.policy_record(found), "wall_clock_s": time.perf_counter() - start,
             "passed": sum(r["passed"] for r in rows), "fell": sum(r["fell"] for r in rows), "count": len(rows),
@@ -63,6 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--checkpoint", metavar="DIR")
     ap.add_argument("--model", metavar="PATH")
     ap.add_argument("--dt", type=float, default=config.PAPER_DT, help="physics time step of the bar, s (default: the paper's)")
+    ap.add_argument("--simulator", choices=("mjx", "mujoco"), default="mjx",
+                    help="MJX in the evaluation's batches (eval), or MuJoCo's C engine one profile at a time (sim2sim)")
     args = ap.parse_args(argv)
     try:
         model = robots.model_path(robots.get(args.robot), args.model)
@@ -70,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     except config.ConfigError as e:
         raise SystemExit(f"walking: {e}") from None
     _xla.enable_compilation_cache()
-    result = walking(args.robot, scenarios, args.checkpoint, str(model) if model else None, args.dt)
+    result = walking(args.robot, scenarios, args.checkpoint, str(model) if model else None, args.dt, args.simulator)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
     print(f"{args.robot}: passed {result['passed']} of {result['count']}, fell {result['fell']}", file=sys.stderr)

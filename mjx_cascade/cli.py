@@ -1,4 +1,4 @@
-"""`mjx-cascade`: info, train, eval, robustness and revise from the command line.
+"""`mjx-cascade`: info, train, eval, robustness, revise, export, sim2sim and play from the command line.
 
 The command line only parses and validates; every command calls the library functions that
 notebooks and tests call. Bad input ends with one line on stderr and exit status 2, before
@@ -43,7 +43,7 @@ def build_parser() -> Parser:
                epilog="Each command has its own --help with examples.")
     p.add_argument("--version", action="version", version=f"mjx-cascade {mjx_cascade.__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for add in (_add_info, _add_train, _add_eval, _add_robustness, _add_revise):
+    for add in (_add_info, _add_train, _add_eval, _add_robustness, _add_revise, _add_export, _add_sim2sim, _add_play):
         add(sub)
     return p
 
@@ -121,16 +121,18 @@ TRAIN_FLAGS = (
 )
 
 
-def _add_simulation_args(parser: argparse.ArgumentParser) -> None:
-    """The policy, model, output and physics options `eval` and `robustness` share."""
+def _add_simulation_args(parser: argparse.ArgumentParser, mjx: bool = True) -> None:
+    """The policy, model, output and physics options `eval`, `robustness` and `sim2sim` share;
+    `mjx`: the command runs MJX (and takes --impl)."""
     parser.add_argument("--robot", choices=ROBOT_CHOICES,
                         help="the robot (default: the --checkpoint's; with neither, required)")
-    parser.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
+    parser.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP + ", or a bundle (export)")
     parser.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     parser.add_argument("--out", required=True, metavar="DIR", help="directory for the results (created)")
     parser.add_argument("--dt", type=float, help=f"physics time step, s (default {config_lib.PAPER_DT}, the "
                                                    "paper's 2 kHz loop, unless --set physics.dt)")
-    parser.add_argument("--impl", choices=config_lib.IMPLS, help=IMPL_HELP)
+    if mjx:
+        parser.add_argument("--impl", choices=config_lib.IMPLS, help=IMPL_HELP)
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="change a controller or physics setting of the policy's config (gait.*, "
@@ -170,6 +172,51 @@ def _add_revise(sub) -> None:
     rev.add_argument("--reason", required=True, help="why, with the evidence")
     rev.add_argument("--date", help="when the change was decided (default: today)")
     rev.set_defaults(func=cmd_revise)
+
+
+def _add_export(sub) -> None:
+    ex = _command(sub, "export", "write a policy as a self-contained bundle for running it outside the trainer",
+                  "  mjx-cascade export --robot cassie --out bundles/cassie\n"
+                  "  mjx-cascade export --checkpoint runs/cassie --out bundles/mine\n")
+    src = ex.add_mutually_exclusive_group(required=True)
+    src.add_argument("--robot", choices=ROBOT_CHOICES, help="the robot's shipped policy")
+    src.add_argument("--checkpoint", metavar="DIR", help="a run's --out, its checkpoints/, or a policy directory")
+    ex.add_argument("--model", metavar="PATH", help=MODEL_HELP)
+    ex.add_argument("--out", required=True, metavar="DIR", help="the bundle: contract.json and weights.npz (docs/bundle.md)")
+    ex.set_defaults(func=cmd_export)
+
+
+def _add_sim2sim(sub) -> None:
+    s2s = _command(sub, "sim2sim", "run scenarios in MuJoCo's C engine with the policy: eval's files, no MJX",
+                   "  mjx-cascade sim2sim --robot cassie --scenario speed_profile --out s2s/speed\n"
+                   "  mjx-cascade sim2sim --bundle bundles/cassie --scenario push rough --out s2s/run\n")
+    _add_simulation_args(s2s, mjx=False)
+    s2s.add_argument("--bundle", metavar="DIR", help="a bundle written by export (instead of --checkpoint)")
+    s2s.add_argument("--scenario", required=True, nargs="+", metavar="NAME|FILE", help="as for eval")
+    s2s.add_argument("--no-video", action="store_true", help="skip rendering the video")
+    s2s.set_defaults(func=cmd_sim2sim)
+
+
+PLAY_KEYS = ("keys (shown on screen):\n"
+             "  Up / Down            forward velocity +/- 0.1 m/s\n"
+             "  Left / Right         sideways velocity +/- 0.05 m/s (to the left / right)\n"
+             "  Page Up / Page Down  heading +/- 0.1 rad (turn left / right)\n"
+             "  Home                 zero velocity (step in place)\n"
+             "  Delete               reset the robot to standing at the origin\n"
+             "  Ctrl + right drag    push the robot (the viewer's perturbation)")
+
+
+def _add_play(sub) -> None:
+    play = _command(sub, "play", "walk the policy in MuJoCo's interactive viewer in real time, steered by keys",
+                    "  mjx-cascade play --robot cassie\n  mjx-cascade play --bundle bundles/cassie\n\n" + PLAY_KEYS + "\n")
+    play.add_argument("--robot", choices=ROBOT_CHOICES, help="the robot (default: the --checkpoint's or --bundle's)")
+    src = play.add_mutually_exclusive_group()
+    src.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
+    src.add_argument("--bundle", metavar="DIR", help="a bundle written by export")
+    play.add_argument("--model", metavar="PATH", help=MODEL_HELP)
+    play.add_argument("--dt", type=float, help=f"physics time step, s (default {config_lib.PAPER_DT})")
+    play.add_argument("--seconds", type=float, help="close after this much simulated time (default: when the window closes)")
+    play.set_defaults(func=cmd_play)
 
 
 def _emit(payload: dict, as_json: bool) -> None:
@@ -260,26 +307,49 @@ def _headless_gl() -> None:
         os.environ["MUJOCO_GL"] = "egl"
 
 
-def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path, dict]:
-    """Validate `--robot` (or take it from `--checkpoint`), `--dt`, `--set`, `--model` and `--out`
-    of eval and robustness; returns `(model path, out, settings)`."""
-    from mjx_cascade import _xla, policies, robots
+def _policy_args(args: argparse.Namespace, settings: dict) -> str | None:
+    """Validate `--bundle` (it becomes the `--checkpoint`), `--robot` (or take it from the
+    policy), `--dt` (default the paper's, unless `settings` set physics.dt) and `--model`;
+    returns the model path."""
+    from mjx_cascade import bundle, robots
 
+    if getattr(args, "bundle", None):
+        if args.checkpoint:
+            raise ConfigError("give --checkpoint or --bundle, not both")
+        if not bundle.is_bundle(args.bundle):
+            raise ConfigError(f"--bundle {args.bundle} holds no bundle (contract.json and weights.npz)")
+        args.checkpoint = args.bundle
     if args.robot is None:
         if args.checkpoint is None:
             raise ConfigError("give --robot, or a --checkpoint to take the robot from (see --help)")
-        args.robot = policies.read(args.checkpoint)[0]["robot"]
+        args.robot = _source_robot(args.checkpoint)
     if args.dt is not None and args.dt <= 0:
         raise ConfigError("--dt must be positive")
-    settings = config_lib.parse_assignments(args.set)
     if args.dt is None and "physics.dt" not in settings:
         args.dt = config_lib.PAPER_DT
     model = robots.model_path(robots.get(args.robot), args.model)
+    return str(model) if model else None
+
+
+def _simulation_args(args: argparse.Namespace) -> tuple[str | None, Path, dict]:
+    """`_policy_args`, `--set` and `--out` of eval, robustness and sim2sim; returns
+    `(model path, out, settings)`."""
+    from mjx_cascade import _xla
+
+    settings = config_lib.parse_assignments(args.set)
+    model = _policy_args(args, settings)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} exists and is not a directory")
     _xla.enable_compilation_cache()
-    return (str(model) if model else None), out, settings
+    return model, out, settings
+
+
+def _source_robot(path: str) -> str:
+    """The robot of a bundle, policy directory or checkpoint."""
+    from mjx_cascade import bundle, policies
+
+    return bundle.load(path).config.robot if bundle.is_bundle(path) else policies.read(path)[0]["robot"]
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -291,6 +361,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     model, out, settings = _simulation_args(args)
     metrics = evaluate.evaluate(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
                                 dt=args.dt, impl=args.impl, video=not args.no_video, settings=settings)
+    return _report(args, metrics, out)
+
+
+def _report(args: argparse.Namespace, metrics: list[dict], out: Path) -> int:
+    """eval's and sim2sim's verdicts on stdout."""
     if args.json:
         print(json.dumps(metrics[0] if len(metrics) == 1 else metrics, indent=2))
         return 0
@@ -304,6 +379,41 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if len(metrics) > 1:
         print(f"passed {sum(m['passed'] for m in metrics)} of {len(metrics)}")
     print(f"wrote {out}")
+    return 0
+
+
+def cmd_sim2sim(args: argparse.Namespace) -> int:
+    if not args.no_video:
+        _headless_gl()
+    from mjx_cascade import scenario, sim2sim
+
+    scenarios = [scenario.load(f) for f in args.scenario]
+    model, out, settings = _simulation_args(args)
+    say = lambda line: print(f"sim2sim {line}", file=sys.stderr, flush=True)  # noqa: E731
+    metrics = sim2sim.sim2sim(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
+                              dt=args.dt, video=not args.no_video, settings=settings, progress=say)
+    return _report(args, metrics, out)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from mjx_cascade import bundle, robots
+
+    robot = args.robot or _source_robot(args.checkpoint)
+    model = robots.model_path(robots.get(robot), args.model)
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} exists and is not a directory")
+    dest = bundle.export(args.checkpoint or robot, out, str(model) if model else None)
+    print(f"wrote {dest}")
+    return 0
+
+
+def cmd_play(args: argparse.Namespace) -> int:
+    from mjx_cascade import play
+
+    model = _policy_args(args, {})
+    play.check_display()
+    play.play(args.robot, args.checkpoint, model, args.dt, seconds=args.seconds)
     return 0
 
 

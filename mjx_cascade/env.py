@@ -75,8 +75,7 @@ class Env:
         `data` is the template (default: one environment's)."""
         model = self.model if model is None else model
         data = self.data_template(1) if data is None else data
-        k_pool, k_side = jax.random.split(key)
-        i = jax.random.randint(k_pool, (), 0, self.pool_qpos.shape[0])
+        i, k_side = start_draw(key, self.pool_qpos.shape[0])
         data = mjx.forward(model, data.replace(qpos=self.pool_qpos[i], qvel=self.pool_qvel[i]))
         ctrl = self.controller.reset(params, k_side, self.observe(data, model), data.time, cmd)
         return EnvState(data=data, ctrl=ctrl)
@@ -116,6 +115,13 @@ class Env:
             stance_v=obs.foot_v[c.stance],
             stance_w=obs.foot_w[c.stance],
         )
+
+
+def start_draw(key: Array, pool_size: int) -> tuple[Array, Array]:
+    """`(pool index, first-swing key)` of an episode started with `key`: every simulator of the
+    controller (MJX here, MuJoCo C in `runtime`) starts from the same draw."""
+    k_pool, k_side = jax.random.split(key)
+    return jax.random.randint(k_pool, (), 0, pool_size), k_side
 
 
 def foot_rest(robot: Robot, qpos: np.ndarray) -> float:

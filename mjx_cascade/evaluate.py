@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import checkpoint, judge, plots, policies, policy, robots, rollout, world
+from mjx_cascade import bundle, checkpoint, judge, plots, policies, policy, robots, rollout, world
 from mjx_cascade import video as video_lib
 from mjx_cascade.config import Config, ConfigError, check_controller_settings
 from mjx_cascade.env import make_env
@@ -30,7 +30,7 @@ RECORD_PERIOD = 0.01  # s
 
 def load_policy(robot: str, checkpoint_dir: str | None = None, dt: float | None = None, impl: str | None = None,
                 settings: dict | None = None) -> tuple[Config, policies.Policy]:
-    """`(the config to run, the policy)` from a checkpoint or policy directory, or the shipped one.
+    """`(the config to run, the policy)` from a checkpoint, policy directory or bundle, or the shipped one.
 
     `dt` and `impl`, where given, replace the physics time step and backend; `settings`
     (`{"regulators.k_phr": 0.4, ...}`, the command line's `--set`) change the controller the same
@@ -38,7 +38,8 @@ def load_policy(robot: str, checkpoint_dir: str | None = None, dt: float | None 
     """
     settings = dict(settings or {})
     check_controller_settings(settings)
-    found = policies.load(checkpoint_dir or robot)
+    found = bundle.load(checkpoint_dir) if checkpoint_dir and bundle.is_bundle(checkpoint_dir) else \
+        policies.load(checkpoint_dir or robot)
     checkpoint.check_robot(found.record, robot)
     # the backend it trained on says nothing about where it runs now; --dt and --impl win over --set
     overrides = {"physics.impl": "auto", **settings}
@@ -133,21 +134,31 @@ def evaluate(robot: str, scenarios: Sequence[Scenario], out: str | Path, checkpo
     (each scenario's verdict). `settings` change the policy's controller (`load_policy`); each
     metrics file records them.
     """
+    scenarios = checked_names(scenarios)
+    cfg, found = load_policy(robot, checkpoint_dir, dt, impl, settings)
+    runs = {}
+    for runner in runners(cfg, scenarios, model_path):
+        for scenario, traj in zip(runner.scenarios, runner(found.params)):
+            runs[scenario.name] = (traj, runner.env.robot)
+    return write(robot, scenarios, runs, policy_record(found, settings), Path(out), video)
+
+
+def checked_names(scenarios: Sequence[Scenario]) -> list[Scenario]:
     scenarios = list(scenarios)
     names = [s.name for s in scenarios]
     if len(set(names)) != len(names):
         raise ConfigError("scenario names must differ (each writes into out/<name>/)")
-    cfg, found = load_policy(robot, checkpoint_dir, dt, impl, settings)
-    out = Path(out)
-    record = policy_record(found, settings)
-    results = {}
-    for runner in runners(cfg, scenarios, model_path):
-        for scenario, traj in zip(runner.scenarios, runner(found.params)):
-            where = out if len(scenarios) == 1 else out / scenario.name
-            results[scenario.name] = _write(robot, scenario, traj, record, where, runner.env.robot if video else None)
-    metrics = [results[n] for n in names]
+    return scenarios
+
+
+def write(robot: str, scenarios: Sequence[Scenario], runs: dict[str, tuple[dict, Robot]], record: dict, out: Path,
+          video: bool) -> list[dict]:
+    """Each scenario's files from `runs` (its name -> (trajectory, the simulated robot)), in `out`
+    for one scenario, else in `out/<name>/` with `out/summary.json`; returns the metrics."""
+    metrics = [_write(robot, s, runs[s.name][0], record, out if len(scenarios) == 1 else out / s.name,
+                      runs[s.name][1] if video else None) for s in scenarios]
     if len(scenarios) > 1:
-        summary = {"policy": record, "dt": cfg.physics.dt, "passed": sum(m["passed"] for m in metrics),
+        summary = {"policy": record, "dt": metrics[0]["dt"], "passed": sum(m["passed"] for m in metrics),
                    "fell": sum(m["fell"] for m in metrics), "scenarios": [verdict(m) for m in metrics]}
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     return metrics

@@ -371,7 +371,7 @@ def test_version_and_help_for_every_option_with_examples_per_command():
     assert res.returncode == 0 and res.stdout.strip() == f"mjx-cascade {__import__('mjx_cascade').__version__}"
     parser = cli_lib.build_parser()
     commands = next(a for a in parser._actions if a.dest == "command").choices
-    assert set(commands) == {"info", "train", "eval", "robustness", "revise"}
+    assert set(commands) == {"info", "train", "eval", "robustness", "revise", "export", "sim2sim", "play"}
     for name, sub in commands.items():
         assert "examples:" in sub.epilog and f"mjx-cascade {name}" in sub.epilog, name
         for action in sub._actions:
