@@ -3,7 +3,9 @@
     python benchmarks/results_table.py [--results benchmarks/results/walking_cpu]
 
 Prints one markdown row per result file in `SETS`: what the profiles are, the role they have
-played, passes, falls and the worst per-segment errors over the set. `tests/test_readme.py`
+played, passes, falls and the worst per-segment errors over the set in MJX (`eval`), and the
+passes and falls of the same profiles in MuJoCo's C engine (`sim2sim`, the file `<name>_mujoco.json`
+from `walking.py --simulator mujoco`) where that file exists. `tests/test_readme.py`
 checks that the README holds exactly this table, so the two cannot drift apart.
 """
 
@@ -24,20 +26,27 @@ SETS = {
     "cassie_disturbances": ("shipped scenarios, pushes, rough (12)", "everyday checks"),
     "digit_profiles": ("digit_rand01-50, digit_screen01-10 (60)", "chose the checkpoint and `command_rate`"),
 }
-HEADER = ("| robot | profiles | role | passed | falls | worst errors (vx, vy m/s; heading rad) | date, code |\n"
-          "| --- | --- | --- | --- | --- | --- | --- |")
+HEADER = ("| robot | profiles | role | passed | falls | worst errors (vx, vy m/s; heading rad) | date, code "
+          "| MuJoCo C: passed, falls, code |\n"
+          "| --- | --- | --- | --- | --- | --- | --- | --- |")
 
 
-def row(name: str, result: dict) -> str:
+def row(name: str, result: dict, mujoco: dict | None) -> str:
     profiles, role = SETS[name]
     worst = {k: max(s["worst"][k] for s in result["scenarios"]) for k in ("vx", "vy", "yaw")}
     errors = f"{worst['vx']:.4f}, {worst['vy']:.4f}; {worst['yaw']:.4f}"
+    c = "not run" if mujoco is None else \
+        f"{mujoco['passed']} of {mujoco['count']}, {mujoco['fell']}, `{mujoco['code_version']}`"
     return (f"| {result['robot']} | {profiles} | {role} | {result['passed']} of {result['count']} | "
-            f"{result['fell']} | {errors} | {result['date']}, `{result['code_version']}` |")
+            f"{result['fell']} | {errors} | {result['date']}, `{result['code_version']}` | {c} |")
+
+
+def _read(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.is_file() else None
 
 
 def table(results: Path = RESULTS) -> str:
-    rows = [row(name, json.loads((results / f"{name}.json").read_text())) for name in SETS]
+    rows = [row(name, _read(results / f"{name}.json"), _read(results / f"{name}_mujoco.json")) for name in SETS]
     return "\n".join([HEADER, *rows])
 
 

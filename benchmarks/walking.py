@@ -53,13 +53,14 @@ def trajectories(cfg: config.Config, params, scenarios: list[scenario.Scenario],
 
 def walking(robot: str, scenarios: list[scenario.Scenario], checkpoint: str | None, model_path: str | None,
             dt: float, simulator: str = "mjx") -> dict:
+    version = code_version()  # the code this process runs: imported at its start
     cfg, found = evaluate.load_policy(robot, checkpoint, dt)
     start = time.perf_counter()
     lines = {s.name: evaluate.verdict({"scenario": {"name": s.name}, **judge.walking(traj)})
              for s, traj in trajectories(cfg, found.params, scenarios, model_path, simulator)}
     rows = [lines[s.name] for s in scenarios]
     simulated = sim2sim.SIMULATOR if simulator == "mujoco" else f"MJX ({physics.resolve_impl(cfg.physics.impl)})"
-    return {"robot": robot, "date": datetime.date.today().isoformat(), "code_version": code_version(),
+    return {"robot": robot, "date": datetime.date.today().isoformat(), "code_version": version,
             "simulator": simulated,
             "device": jax.devices()[0].device_kind, "backend": jax.default_backend(), "dt": cfg.physics.dt,
             "policy": evaluate.policy_record(found), "wall_clock_s": time.perf_counter() - start,
