@@ -87,7 +87,8 @@ def run(p: Play, viewer: Any, seconds: float | None = None, realtime: bool = Tru
         start = time.perf_counter()
         with viewer.lock():
             p.advance(FRAME)
-        viewer.set_texts((None, None, *p.text()))
+        if hasattr(viewer, "set_texts"):  # MuJoCo >= 3.3.3; older viewers show no overlay
+            viewer.set_texts((None, None, *p.text()))
         viewer.sync()
         if realtime:
             time.sleep(max(0.0, FRAME - (time.perf_counter() - start)))

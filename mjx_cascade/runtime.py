@@ -70,6 +70,8 @@ class Runtime:
     The controller's state stays inside the runtime between ticks, as one flat host vector that
     the compiled tick reads and returns (`state` gives it as a `ControllerState`). `reset` and
     `control` are compiled ahead of time for this model, so a tick never waits for JAX to trace.
+    Creating one turns JAX's asynchronous CPU dispatch off for the process: a tick then runs on
+    the calling thread, which a host loop waits for anyway.
     """
 
     def __init__(self, robot: Robot, cfg: Config, params: np.ndarray,

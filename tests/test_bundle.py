@@ -36,6 +36,14 @@ def test_the_layers_as_plain_arrays_give_the_packages_actions(cassie_bundle):
     assert np.abs(expected - expected.mean(axis=0)).max() > 0.05  # the features matter: not a constant
 
 
+def test_eval_reads_a_bundle_as_it_reads_the_policy(cassie_bundle):
+    from mjx_cascade import evaluate
+
+    cfg, found = evaluate.load_policy("cassie", str(cassie_bundle), 0.0005)
+    shipped_cfg, shipped = evaluate.load_policy("cassie", None, 0.0005)
+    assert cfg == shipped_cfg and np.array_equal(found.params, shipped.params)
+
+
 def test_the_contract_states_what_the_controller_needs(cassie_bundle):
     contract = json.loads((cassie_bundle / bundle.CONTRACT).read_text())
     cfg = policies.load("cassie").config
