@@ -27,6 +27,32 @@ def configure() -> None:
         )
 
 
+DEVICE_COUNT_FLAG = "--xla_force_host_platform_device_count"
+
+
+def cpu_devices(value: str) -> int:
+    """`--cpu-devices`: a positive count, or `auto` for one device per core this process may use."""
+    if value == "auto":
+        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    try:
+        n = int(value)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ValueError(f"--cpu-devices takes a positive count or auto, got {value!r}")
+    return n
+
+
+def split_cpu(devices: int) -> None:
+    """Split the CPU into `devices` JAX devices (the population is sharded over them). XLA reads
+    the flag when JAX creates its CPU backend, so this must come before any JAX work; a count
+    given in `XLA_FLAGS` already is replaced."""
+    if _cpu_backend_started():
+        raise RuntimeError("JAX's CPU backend has started: split the CPU before any JAX work")
+    kept = [f for f in os.environ.get("XLA_FLAGS", "").split() if not f.startswith(DEVICE_COUNT_FLAG)]
+    os.environ["XLA_FLAGS"] = " ".join(kept + [f"{DEVICE_COUNT_FLAG}={devices}"])
+
+
 def _cpu_backend_started() -> bool:
     xb = sys.modules.get("jax._src.xla_bridge")
     return bool(xb is not None and getattr(xb, "_backends", None))

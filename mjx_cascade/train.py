@@ -113,8 +113,7 @@ def setup(cfg: Config, model_path: str | None = None, init: str | Path | None = 
     """The trainer at generation 0, or warm-started from the policy at `init` (a run, or a policy
     directory), counting on from that policy's generation."""
     sharding, devices = population_sharding()
-    if cfg.es.population % devices:
-        raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
+    check_devices(cfg, devices, jax.default_backend())
     key = jax.random.PRNGKey(cfg.seed)
     network = policy.for_controller(cfg, len(robots.get(cfg.robot).learned), key)
     start = _warm_start(cfg, network, init) if init is not None else None  # before the (slow) environment
@@ -126,6 +125,16 @@ def setup(cfg: Config, model_path: str | None = None, init: str | Path | None = 
                                          "generation": generation, "source": str(init)}
     return Trainer(cfg, env, network, make_run(env, strategy, cfg.train.generations_per_call), replicate(state),
                    devices, record)
+
+
+def check_devices(cfg: Config, devices: int, backend: str) -> None:
+    """Refuse a population the devices cannot share, and CPU splits known to hang for the robot."""
+    if cfg.es.population % devices:
+        raise ConfigError(f"es.population ({cfg.es.population}) must be a multiple of the {devices} devices")
+    limit = robots.get(cfg.robot).max_cpu_devices
+    if backend == "cpu" and limit is not None and devices > limit:
+        raise ConfigError(f"{cfg.robot} trains on at most {limit} CPU device(s): on more it hung inside "
+                          f"LAPACK's Cholesky (docs/faq.md); use --cpu-devices {limit}")
 
 
 def _warm_start(cfg: Config, network: policy.Network, init: str | Path) -> tuple[dict, np.ndarray]:

@@ -247,6 +247,9 @@ def bad_inputs(tmp_path):
         (train[:3] + ["--set", "es.learning_rate=-0.1", "--out"], "es.learning_rate"),
         (train[:3] + ["--set", "physics.dt=0", "--out"], "physics.dt"),
         (train[:3] + ["--episode-seconds", "0", "--out"], "episode.seconds"),
+        (train[:3] + ["--cpu-devices", "0", "--out"], "--cpu-devices takes a positive count or auto"),
+        (train[:3] + ["--cpu-devices", "3", "--population", "4", "--out"], "multiple of the 3 devices"),
+        (["train", "--robot", "digit", "--cpu-devices", "2", "--out"], "at most 1 CPU device"),
         (["train", "--robot", "digit", "--model", tmp_path / "missing.xml", "--out"], "not found"),
         (["train", "--robot", "digit", "--model", ROOT.parent / "shared/menagerie/agility_cassie/cassie.xml", "--out"],
          "not a digit model"),
@@ -362,6 +365,22 @@ def test_checkpoints_for_another_robot_or_policy_are_refused(smoke, tmp_path):
     res = cli("eval", "--robot", "digit", "--model", DIGIT_MODEL, "--checkpoint", out,
               "--scenario", DATA / "short.json", "--out", tmp_path / "e")
     assert res.returncode == 2 and "for robot 'cassie'" in res.stderr and not (tmp_path / "e").exists()
+
+
+def test_cpu_devices_split_the_cpu_before_jax_starts():
+    """`--cpu-devices` sets XLA's host device count, replacing one given in XLA_FLAGS."""
+    from mjx_cascade import _xla
+
+    script = "from mjx_cascade import _xla; _xla.split_cpu(2); import jax; print(len(jax.devices()))"
+    res = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4"})
+    assert res.returncode == 0 and res.stdout.strip() == "2", res.stderr[-2000:]
+    assert _xla.cpu_devices("auto") == len(os.sched_getaffinity(0)) and _xla.cpu_devices("3") == 3
+    with pytest.raises(RuntimeError, match="before any JAX work"):  # this process has started JAX
+        import jax
+
+        jax.devices()
+        _xla.split_cpu(2)
 
 
 def test_version_and_help_for_every_option_with_examples_per_command():

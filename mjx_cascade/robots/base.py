@@ -47,6 +47,8 @@ class RobotDefinition:
     model_env: str | None = None  # environment variable naming the model file
     model_required: bool = False  # no default model: the user must supply one
     model_hint: str = ""  # where users get the model, for error messages
+    # the most CPU devices training may split a CPU into; None: any (docs/faq.md says why not)
+    max_cpu_devices: int | None = None
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

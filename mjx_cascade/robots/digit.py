@@ -142,4 +142,7 @@ DEFINITION = RobotDefinition(
     model_env="DIGIT_MODEL_PATH",
     model_required=True,
     model_hint=HINT,
+    # split into two CPU devices, the first training call hung in 2 of 2 tries inside MJX's batched
+    # LAPACK Cholesky, every thread asleep (docs/faq.md)
+    max_cpu_devices=1,
 )
