@@ -95,7 +95,7 @@ def _add_train(sub) -> None:
     src.add_argument("--config", metavar="FILE", help="YAML config: `robot` plus overrides of its settings")
     src.add_argument("--robot", choices=ROBOT_CHOICES, help="train with the robot's shipped config")
     train.add_argument("--out", required=True, metavar="DIR",
-                       help="run directory: checkpoints/, metrics.jsonl, learning_curve.png")
+                       help="run directory: checkpoints/, metrics.jsonl, learning_curve.png, config.yaml")
     train.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     train.add_argument("--init", metavar="POLICY",
                        help="warm-start from a policy: a run's --out or a policy directory "

@@ -27,7 +27,7 @@ from mjx_cascade import checkpoint, episodes, es, plots, policies, policy, rewar
 from mjx_cascade.config import Config, ConfigError, differences, from_dict, get, to_dict
 from mjx_cascade.env import Env, make_env
 
-METRICS = "metrics.jsonl"
+METRICS, CONFIG, CURVE = "metrics.jsonl", "config.yaml", "learning_curve.png"
 # What a resumed run may change without --accept-changes: how far and in what calls it goes,
 # not what it trains (each generation's keys come from its index alone).
 RESUMABLE = ("train.generations", "train.checkpoint_every", "train.generations_per_call")
@@ -242,7 +242,10 @@ class _Run:
 def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
           log: Callable[[str], None] | None = None, init: str | Path | None = None,
           accept_changes: bool = False) -> dict:
-    """Train (or resume) into `out`: `out/checkpoints/`, `out/metrics.jsonl` and `out/learning_curve.png`.
+    """Train (or resume) into `out`: `out/checkpoints/`, `out/metrics.jsonl`, `out/learning_curve.png`
+    (redrawn at every checkpoint, and when the run stops or is interrupted) and `out/config.yaml`
+    (the resolved config of the latest start; `train --config` reads it back). Off a terminal,
+    each call logs one progress line.
 
     `init` warm-starts a new run from another run's policy (`setup`); a run that has a checkpoint
     resumes from it instead, keeping the warm start it began with, and refuses a changed config
@@ -255,22 +258,38 @@ def train(cfg: Config, out: str | Path, model_path: str | None = None, progress:
     trainer = setup(cfg, model_path, None if changes is not None else init)
     mngr = checkpoint.manager(out / "checkpoints")
     state, totals = _start(trainer, mngr, changes, init, log, out)
+    write_config(cfg, out / CONFIG)
     _truncate_metrics(out / METRICS, int(state.generation))
     t0 = time.perf_counter()
     trainer.run = trainer.run.lower(state, jnp.int32(cfg.train.generations_per_call)).compile()
     compile_s = time.perf_counter() - t0
     log(f"compiled one call of {cfg.train.generations_per_call} generations in {compile_s:.1f} s "
         f"({trainer.env.impl}, {trainer.devices} {jax.default_backend()} device(s), population {cfg.es.population})")
-    state = _train_loop(trainer, state, totals, mngr, out, progress)
+    try:
+        state = _train_loop(trainer, state, totals, mngr, out, progress, log)
+    finally:  # an interrupted run still leaves its curve so far
+        _learning_curve(cfg, out)
     if mngr.latest_step() != int(state.generation):  # nothing was due (already trained that far): still leave one
         checkpoint.save(mngr, int(state.generation), state, metadata(trainer, int(state.generation),
                                                                       totals.physics_steps, totals.wall_clock,
                                                                       totals.history))
-    plots.learning_curve(out / METRICS, out / "learning_curve.png", title=f"{cfg.robot}: fitness (Fig. 6)")
     return {"generation": int(state.generation), "physics_steps": totals.physics_steps,
             "wall_clock_s": totals.wall_clock, "compile_s": compile_s,
             "params_sha256": checkpoint.params_sha256(state.mean), "devices": trainer.devices,
             "impl": trainer.env.impl}
+
+
+def write_config(cfg: Config, path: Path) -> None:
+    """The resolved config as YAML that `train --config` reads back to the same config."""
+    import yaml
+
+    data = {k: v for k, v in to_dict(cfg).items() if k != "version"}
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+
+
+def _learning_curve(cfg: Config, out: Path) -> None:
+    if (out / METRICS).is_file() and (out / METRICS).stat().st_size:
+        plots.learning_curve(out / METRICS, out / CURVE, title=f"{cfg.robot}: fitness (Fig. 6)")
 
 
 def _start(trainer: Trainer, mngr: Any, changes: dict | None, init: Any, log: Callable, out: Path
@@ -291,9 +310,10 @@ def _start(trainer: Trainer, mngr: Any, changes: dict | None, init: Any, log: Ca
 
 
 def _train_loop(trainer: Trainer, state: es.ESState, totals: _Run, mngr: Any, out: Path,
-                progress: bool | None) -> es.ESState:
+                progress: bool | None, log: Callable[[str], None]) -> es.ESState:
     cfg = trainer.cfg
     bar = _progress(progress, cfg.train.generations, int(state.generation))
+    lines = progress is None and bar is None  # off a terminal: one plain line per call
     start, wall0 = time.perf_counter(), totals.wall_clock
 
     with (out / METRICS).open("a") as f:
@@ -310,6 +330,10 @@ def _train_loop(trainer: Trainer, state: es.ESState, totals: _Run, mngr: Any, ou
             if generation % cfg.train.checkpoint_every == 0 or generation == cfg.train.generations:
                 checkpoint.save(mngr, generation, state,
                                 metadata(trainer, generation, totals.physics_steps, totals.wall_clock, totals.history))
+                _learning_curve(cfg, out)
+            if lines:
+                log(f"generation {generation}/{cfg.train.generations}: fitness {rows[-1]['fitness_mean']:.3f}, "
+                    f"{seconds:.1f} s, {steps / seconds:,.0f} samples/s")
             if bar:
                 bar.update(len(rows))
                 bar.set_postfix(fitness=f"{rows[-1]['fitness_mean']:.3f}")

@@ -108,6 +108,9 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
     assert any(r["reward/orientation"] < 0 for r in lines)  # the terms are measured, not placeholders
     assert lines[2]["physics_steps_total"] > lines[1]["physics_steps_total"]
     assert "resuming" in second.stderr
+    assert "generation 3/3: fitness" in second.stderr  # off a terminal, a line per call
+    smoke_cfg = {"train.generations": 3, "es.population": 4, "episode.seconds": 0.5, "episode.pool_size": 4}
+    assert config.load(out / "config.yaml") == config.robot_config("cassie").override(**smoke_cfg)
     # every 10 generations by default, and always where a run stops
     assert sorted(p.name for p in (out / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "3"]
     assert (out / "learning_curve.png").stat().st_size > 10_000
