@@ -149,6 +149,8 @@ def export(source: str, dest: str | Path, model_path: str | None = None) -> Path
     from mjx_cascade import env, standing
 
     found = policies.load(source)
-    robot = robots.build(robots.get(found.config.robot), found.config.physics, model_path)
-    pool = standing.balanced_pool(robot, found.config, seed=found.config.seed)
+    # the model and standing states it runs with (`timestep.runs`), as `sim2sim` and `play` build them
+    runs = found.config.override(**{"physics.dt": PAPER_DT})
+    robot = robots.build(robots.get(runs.robot), runs.physics, model_path)
+    pool = standing.balanced_pool(robot, runs, seed=runs.seed)
     return write(found, robot, env.foot_rest(robot, pool[0]), dest)

@@ -14,6 +14,8 @@ simulator once per process, before any JAX work, so it costs no compilation.
 
 from __future__ import annotations
 
+import hashlib
+
 import mujoco
 import numpy as np
 
@@ -27,7 +29,28 @@ ROLL_GAIN, ROLL_DAMPING = 3.0, 0.3  # knee angle per rad and per rad/s of pelvis
 
 
 def balanced_pool(robot: Robot, cfg: Config, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """`(qpos [P, nq], qvel [P, nv])` of `cfg.episode.pool_size` balanced states, feet centred on the origin."""
+    """`(qpos [P, nq], qvel [P, nv])` of `cfg.episode.pool_size` balanced states, feet centred on the origin.
+
+    A pure function of the model, the settings it reads and the seed; a process computes each
+    pool once (seconds of simulation), and every caller gets its own copy.
+    """
+    key = (robot.definition.name, _model_digest(robot.model), repr(cfg.episode), repr(cfg.termination),
+           repr(cfg.regulators), seed)
+    if key not in _POOLS:
+        _POOLS[key] = _balanced_pool(robot, cfg, seed)
+    return tuple(a.copy() for a in _POOLS[key])
+
+
+_POOLS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _model_digest(model: mujoco.MjModel) -> str:
+    buffer = np.empty(mujoco.mj_sizeModel(model), np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+
+def _balanced_pool(robot: Robot, cfg: Config, seed: int) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     size = cfg.episode.pool_size
     states = []
