@@ -24,8 +24,9 @@ if os.environ.get("MENAGERIE_ROOT"):
 
 # Files that compile a whole controller (20 to 60 s each) run first, so that under `pytest -n 2`
 # the two workers share them and then finish the quick files together (pyproject.toml keeps this
-# order with --no-loadscope-reorder).
-LONG_FIRST = ("test_smoke.py", "test_cli.py", "test_controller.py")
+# order with --no-loadscope-reorder). The shipped policy's walk comes early too: the walking
+# benchmark's test (test_benchmarks.py) runs the same program and then finds it in the cache.
+LONG_FIRST = ("test_smoke.py", "test_cli.py", "test_controller.py", "test_shipped_policy.py")
 
 
 def pytest_collection_modifyitems(items):
