@@ -8,8 +8,10 @@ JAX runs on a CUDA GPU and `mujoco-warp` is installed, else `jax`.
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib.util
 import io
+import sys
 
 import jax
 import mujoco
@@ -27,12 +29,24 @@ def warp_available() -> bool:
 
 
 def resolve_impl(impl: str) -> str:
-    """`auto` -> `warp` or `jax`; an explicit `warp` where it cannot run is a ConfigError."""
+    """`auto` -> `warp` or `jax`; an explicit `warp` where it cannot run is a ConfigError. With
+    MuJoCo Warp installed but JAX on the CPU (a CPU-only jaxlib), `auto` says so once on stderr
+    rather than fall back quietly."""
     if impl == "auto":
-        return "warp" if warp_available() else "jax"
+        if warp_available():
+            return "warp"
+        if jax.default_backend() == "cpu" and importlib.util.find_spec("mujoco_warp") is not None:
+            _say_once("mjx_cascade: mujoco-warp is installed but JAX runs on the CPU, so MJX runs impl=jax; "
+                      "for an NVIDIA GPU install JAX's CUDA build: pip install 'mjx-cascade[gpu]'")
+        return "jax"
     if impl == "warp" and not warp_available():
         raise ConfigError("--impl warp needs an NVIDIA GPU and mujoco-warp (pip install 'mjx-cascade[warp]')")
     return impl
+
+
+@functools.cache
+def _say_once(message: str) -> None:
+    print(message, file=sys.stderr)
 
 
 def put_model(model: mujoco.MjModel, impl: str) -> mjx.Model:

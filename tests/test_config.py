@@ -160,3 +160,27 @@ def test_set_assignments_are_parsed_once_for_every_command_line():
     assert config.parse_assignments(["es.sigma=0.05", " episode.vx =[0, 1]"]) == {"es.sigma": "0.05", "episode.vx": "[0, 1]"}
     with pytest.raises(ConfigError, match="KEY=VALUE"):
         config.parse_assignments(["es.sigma"])
+
+
+def test_auto_says_once_when_mujoco_warp_is_installed_but_jax_runs_on_the_cpu(capsys, monkeypatch):
+    """A CPU-only jaxlib beside mujoco-warp (`pip install ".[warp]"` without CUDA JAX) runs
+    impl=jax, and says so once on stderr instead of falling back quietly."""
+    import importlib.util
+
+    from mjx_cascade import physics
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(physics.importlib.util, "find_spec",
+                        lambda name, *a: object() if name == "mujoco_warp" else real(name, *a))
+    physics._say_once.cache_clear()
+    assert physics.resolve_impl("auto") == "jax" and physics.resolve_impl("auto") == "jax"
+    err = capsys.readouterr().err
+    assert err.count("mujoco-warp is installed but JAX runs on the CPU") == 1 and "mjx-cascade[gpu]" in err
+    with pytest.raises(config.ConfigError, match="needs an NVIDIA GPU"):
+        physics.resolve_impl("warp")
+
+
+def test_the_gpu_extra_brings_cuda_jax_and_mujoco_warp():
+    text = (ROOT / "pyproject.toml").read_text()
+    gpu = next(line for line in text.splitlines() if line.startswith("gpu = "))
+    assert '"jax[cuda12]' in gpu and '"mujoco-warp' in gpu and '"warp-lang' in gpu
