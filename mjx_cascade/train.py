@@ -188,12 +188,41 @@ def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock
         "backend": jax.default_backend(),
         "impl": env.impl,
         "jax_version": jax.__version__,
+        "versions": software_versions(),
+        "cpu": cpu_model(),
         "reproducibility": "bitwise on the same devices and backend; on another device count or kind "
                            "within floating-point tolerance",
         "config": to_dict(trainer.cfg),
         **({"init": trainer.init} if trainer.init else {}),
         **({"config_changes": history} if history else {}),
     }
+
+
+def software_versions() -> dict[str, str]:
+    """The installed versions of the packages whose arithmetic a trained policy depends on."""
+    from importlib import metadata as md
+
+    def version(name: str) -> str:
+        try:
+            return md.version(name)
+        except md.PackageNotFoundError:
+            return "not installed"
+
+    return {name: version(name) for name in ("mjx-cascade", "jax", "jaxlib", "mujoco", "mujoco-mjx", "flax",
+                                             "optax", "numpy")}
+
+
+def cpu_model() -> str:
+    """The host CPU's model name: XLA's CPU code, and so the last bits of training, depend on it."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    import platform
+
+    return platform.processor() or platform.machine()
 
 
 def drive(trainer: Trainer, state: es.ESState, target: int, every: int,
