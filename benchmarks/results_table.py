@@ -1,12 +1,14 @@
-"""The README's results table, built from the walking-bar result files (`walking.py`).
+"""The README's results table, built from the walking benchmark's result files.
 
-    python benchmarks/results_table.py [--results benchmarks/results/walking_cpu]
+    python benchmarks/results_table.py
 
-Prints one markdown row per result file in `SETS`: what the profiles are, the role they have
-played, passes, falls and the worst per-segment errors over the set in MJX (`eval`), and the
-passes and falls of the same profiles in MuJoCo's C engine (`sim2sim`, the file `<name>_mujoco.json`
-from `walking.py --simulator mujoco`) where that file exists. `tests/test_readme.py`
-checks that the README holds exactly this table, so the two cannot drift apart.
+Prints one markdown row per file in `FILES` (written by `mjx-cascade benchmark walking ... --out
+FILE`): the profile set and the role it has played, passes, falls, the worst per-segment errors,
+how long the 1-s average velocity took to settle after command changes (median and worst, vx and
+vy), the date and code version, and the passes and falls of the same profiles in MuJoCo's C engine
+(the file `<name>_mujoco.json`, `--simulator mujoco`) where that file exists. Every file must
+judge the policy that ships now: a file of another policy is refused, so the table cannot show a
+stale figure. `tests/test_readme.py` checks that the README holds exactly this table.
 """
 
 from __future__ import annotations
@@ -17,42 +19,70 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "benchmarks" / "results" / "walking_cpu"
+RESULTS = ROOT / "benchmarks" / "results"
 
-# result file -> (the profiles, the role they have played so far)
-SETS = {
-    "cassie_screen": ("rand401-510 (20)", "chose the checkpoint"),
-    "cassie_profiles": ("rand601-910 (40)", "drawn unseen; later chose `height_over_slope`"),
-    "cassie_disturbances": ("shipped scenarios, pushes, rough (12)", "everyday checks"),
-    "digit_profiles": ("digit_rand01-50, digit_screen01-10 (60)", "chose the checkpoint and `command_rate`"),
+# result file (under RESULTS) -> the role its profiles have played; the set's name comes from the file
+FILES = {
+    "walking/cassie_val.json": "chose the checkpoint",
+    "walking/cassie_test.json": "drawn after the policy was frozen; run once",
+    "walking/cassie_steps.json": "command steps across the full ranges",
+    "walking_cpu/digit_profiles.json": "chose the checkpoint and `command_rate`",
 }
-HEADER = ("| robot | profiles | role | passed | falls | worst errors (vx, vy m/s; heading rad) | date, code "
-          "| MuJoCo C: passed, falls, code |\n"
-          "| --- | --- | --- | --- | --- | --- | --- | --- |")
+# sets judged before the profile sets by role existed (the shipped Digit policy's)
+LEGACY = {"walking_cpu/digit_profiles.json": "digit_rand01-50, digit_screen01-10"}
+HEADER = ("| robot | profiles | role | passed | falls | worst errors (vx, vy m/s; heading rad) "
+          "| settling after a change, median / worst (vx; vy s) | date, code | MuJoCo C: passed, falls |\n"
+          "| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+
+
+def _seconds(r: dict | None) -> str:
+    if not r or not r["changes"]:
+        return "-"
+    text = f"{r['median_s']:.2f} / {r['worst_s']:.2f}" if r["median_s"] is not None else "none settled"
+    return text + (f" ({r['unsettled']} unsettled)" if r["unsettled"] else "")
 
 
 def row(name: str, result: dict, mujoco: dict | None) -> str:
-    profiles, role = SETS[name]
     worst = {k: max(s["worst"][k] for s in result["scenarios"]) for k in ("vx", "vy", "yaw")}
     errors = f"{worst['vx']:.4f}, {worst['vy']:.4f}; {worst['yaw']:.4f}"
-    c = "not run" if mujoco is None else \
-        f"{mujoco['passed']} of {mujoco['count']}, {mujoco['fell']}, `{mujoco['code_version']}`"
-    return (f"| {result['robot']} | {profiles} | {role} | {result['passed']} of {result['count']} | "
-            f"{result['fell']} | {errors} | {result['date']}, `{result['code_version']}` | {c} |")
+    response = result.get("response", {})
+    settle = f"{_seconds(response.get('vx'))}; {_seconds(response.get('vy'))}" if response else "not measured"
+    profiles = f"{LEGACY.get(name, result.get('set'))} ({result['count']})"
+    c = "not run" if mujoco is None else f"{mujoco['passed']} of {mujoco['count']}, {mujoco['fell']}"
+    return (f"| {result['robot']} | {profiles} | {FILES[name]} | {result['passed']} of {result['count']} | "
+            f"{result['fell']} | {errors} | {settle} | {result['date']}, `{result['code_version']}` | {c} |")
 
 
 def _read(path: Path) -> dict | None:
     return json.loads(path.read_text()) if path.is_file() else None
 
 
+def check_policy(name: str, result: dict) -> None:
+    """Refuse a file that judged another policy than the one that ships for its robot."""
+    from mjx_cascade import checkpoint, policies
+
+    shipped = checkpoint.params_sha256(policies.load(result["robot"]).params)
+    if result["policy"]["params_sha256"] != shipped:
+        raise SystemExit(f"{name} judged the policy {result['policy']['params_sha256'][:12]}, not the shipped "
+                         f"{result['robot']} policy {shipped[:12]}: rerun it")
+
+
 def table(results: Path = RESULTS) -> str:
-    rows = [row(name, _read(results / f"{name}.json"), _read(results / f"{name}_mujoco.json")) for name in SETS]
+    rows = []
+    for name in FILES:
+        result = _read(results / name)
+        if result is None:
+            raise SystemExit(f"{results / name} is missing: run `mjx-cascade benchmark walking` (benchmarks/README.md)")
+        mujoco = _read(results / name.replace(".json", "_mujoco.json"))
+        for judged in filter(None, (result, mujoco)):
+            check_policy(name, judged)
+        rows.append(row(name, result, mujoco))
     return "\n".join([HEADER, *rows])
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--results", type=Path, default=RESULTS, help="directory of the walking result files")
+    ap.add_argument("--results", type=Path, default=RESULTS, help="directory of the result files")
     print(table(ap.parse_args(argv).results))
     return 0
 

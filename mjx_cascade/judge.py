@@ -5,7 +5,9 @@ Both read the same two things: a fall (the pelvis below `Fall.height` above the 
 beyond `Fall.tilt`, or non-finite), and the 1-second moving average of the heading-frame pelvis
 velocity against the command.
 - Walking: in every command segment of `min_segment` s or more, after `settle` s, the mean
-  absolute error of that average in vx and vy, and of the heading, within bounds; no fall.
+  absolute error of that average in vx and vy, and of the heading, within bounds; no fall. Each
+  segment also says how long each of them took to settle: the time from the segment's start
+  after which the average (the heading itself) stays within the bound to the segment's end.
 - Robustness: over the last `judge_seconds` of a trial with one command, the mean absolute error
   of that average in vx and in vy within `tolerance`; no fall.
 """
@@ -76,17 +78,37 @@ def walking(traj: dict, bar: WalkingBar = WALKING) -> dict:
 def _segment(t, cmd, v_avg, yaw, a: int, b: int, period: float, bar: WalkingBar) -> dict:
     """Records `[a, b)` of one command: its errors after settling, if it lasts long enough."""
     t0 = t[a] - period  # each record ends a period that its command held throughout
-    seg = {"t_start": float(max(t0, 0.0)), "t_end": float(t[b - 1]), "cmd": cmd[a].tolist()}
+    seg = {"t_start": float(max(t0, 0.0)), "t_end": float(t[b - 1]), "cmd": cmd[a].tolist(),
+           "settle": _settle(t[a:b], t0, v_avg[a:b] - cmd[a:b, :2], _wrap(yaw[a:b] - cmd[a:b, 2]), bar)}
     index = np.arange(len(t))
     judged = (t >= t0 + bar.settle) & (index >= a) & (index < b)
     if t[b - 1] - t0 < bar.min_segment - 1e-6 or not judged.any():
         return seg
-    err_yaw = np.angle(np.exp(1j * (yaw[judged] - cmd[judged, 2])))
+    err_yaw = _wrap(yaw[judged] - cmd[judged, 2])
     seg.update(vx_mae=float(np.mean(np.abs(v_avg[judged, 0] - cmd[judged, 0]))),
                vy_mae=float(np.mean(np.abs(v_avg[judged, 1] - cmd[judged, 1]))),
                yaw_mae=float(np.mean(np.abs(err_yaw))))
     seg["within_bounds"] = bool(seg["vx_mae"] <= bar.vx and seg["vy_mae"] <= bar.vy and seg["yaw_mae"] <= bar.yaw)
     return seg
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return np.angle(np.exp(1j * angle))
+
+
+def _settle(t: np.ndarray, t0: float, err_v: np.ndarray, err_yaw: np.ndarray, bar: WalkingBar) -> dict:
+    """Seconds from `t0` until each error (vx, vy of the average; the heading) stays within its
+    bound through the last record; None where the last record is still outside."""
+    out = {}
+    for name, err, bound in (("vx", err_v[:, 0], bar.vx), ("vy", err_v[:, 1], bar.vy), ("yaw", err_yaw, bar.yaw)):
+        outside = np.nonzero(np.abs(err) > bound)[0]
+        if not len(outside):
+            out[name] = 0.0
+        elif outside[-1] == len(t) - 1:
+            out[name] = None
+        else:
+            out[name] = round(float(t[outside[-1] + 1] - t0), 3)  # the first record that stays inside
+    return out
 
 
 def robust(t: np.ndarray, qpos: np.ndarray, qvel: np.ndarray, ground: np.ndarray, cmd: np.ndarray,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import DATA, ROOT, benchmark_script
-from mjx_cascade import evaluate, policy, scenario
+from mjx_cascade import benchmark, checkpoint, cli, evaluate, policies, policy, scenario
 
 pytestmark = pytest.mark.slow
 
@@ -59,12 +59,17 @@ def test_time_to_walk_checks_twelve_flat_profiles_by_default():
 
 
 def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tmp_path):
-    """The shipped-policy test's walk (its program is in the compilation cache), through the script."""
-    walking = benchmark_script("walking")
+    """The shipped-policy test's walk (its program is in the compilation cache), through the command line."""
     out = tmp_path / "walking.json"
-    assert walking.main(["--robot", "cassie", "--scenario", str(DATA / "walk_short.json"), "--out", str(out)]) == 0
+    assert cli.main(["benchmark", "walking", "--robot", "cassie", "--scenario", str(DATA / "walk_short.json"),
+                     "--out", str(out)]) == 0
     result = json.loads(out.read_text())
     assert result["count"] == 1 and result["dt"] == EVAL_DT and result["code_version"] != ""
+    assert result["set"] == "scenarios" and result["robot"] == "cassie"
     line = result["scenarios"][0]
     assert line["scenario"] == "walk_short" and result["passed"] == int(line["passed"])
-    assert 0 < line["worst"]["vx"] < 0.1 and result["policy"]["revisions"] == [{"regulators.height_over_slope": True}]
+    assert 0 < line["worst"]["vx"] < 0.1
+    shipped = policies.load("cassie")
+    assert result["policy"]["params_sha256"] == checkpoint.params_sha256(shipped.params)
+    assert result["policy"]["revisions"] == [r["settings"] for r in shipped.revisions]
+    assert result["response"] == benchmark.response(result["scenarios"])

@@ -5,7 +5,7 @@ import pytest
 
 from mjx_cascade import judge, scenario
 from mjx_cascade.config import ConfigError
-from conftest import DATA, ROOT, benchmark_script
+from conftest import DATA, ROOT
 
 GOOD = {
     "name": "s",
@@ -98,28 +98,17 @@ def test_tracking_fails_on_velocity_error_and_on_a_fall():
     assert fallen["fell"] and fallen["fall_time"] == pytest.approx(0.01) and not fallen["passed"]
 
 
-def test_drawn_profiles_are_scenarios_within_their_ranges_and_reproducible(tmp_path):
-    """`benchmarks/draw_profiles.py`, which drew the random profiles in `benchmarks/scenarios/`."""
-    draw = benchmark_script("draw_profiles")
-    args = ["--prefix", "p", "--seed", "3", "--count", "4", "--vx", "-0.2", "0.5", "--vy", "-0.2", "0.2",
-            "--heading-step", "0.3"]
-    for out in ("a", "b"):
-        draw.main(args + ["--out", str(tmp_path / out)])
-    names = sorted(p.name for p in (tmp_path / "a").iterdir())
-    assert names == ["p01.json", "p02.json", "p03.json", "p04.json"]
-    for name in names:
-        assert (tmp_path / "a" / name).read_text() == (tmp_path / "b" / name).read_text()
-        s = scenario.load(tmp_path / "a" / name)
-        assert s.duration == 20.0 and s.name == name[:-5]
-        c = np.array(s.commands)
-        assert c[0, 0] == 0.0 and set(np.diff(c[:, 0])) <= {4.0, 5.0, 6.0} and c[-1, 0] < 20.0
-        assert np.all((-0.2 <= c[:, 1]) & (c[:, 1] <= 0.5)) and np.all(np.abs(c[:, 2]) <= 0.2)
-        assert np.all(np.abs(np.diff(np.concatenate([[0.0], c[:, 3]]))) <= 0.3)
-    # the Cassie profiles drawn for the current policy's judgement come from the same script
-    draw.main(["--prefix", "rand", "--seed", "901", "--first", "901", "--count", "10", "--vx", "-0.3", "0.8",
-               "--vy", "-0.3", "0.3", "--heading-step", "0.5", "--out", str(tmp_path / "c")])
-    for p in sorted((tmp_path / "c").iterdir()):
-        assert json.loads(p.read_text()) == json.loads((ROOT / "benchmarks" / "scenarios" / p.name).read_text())
+def test_each_segment_says_how_long_each_error_took_to_settle():
+    """A robot that follows each command at once still settles late by the 1-s average's lag:
+    a 0.4 m/s step leaves the average 0.1 off after 0.75 s, a 0.3 m/s step after 2/3 s."""
+    first, second, third = judge.walking(_tracking_trajectory(_profile))["segments"]
+    assert second["settle"]["vx"] == pytest.approx(0.75, abs=0.02)
+    assert third["settle"]["vy"] == pytest.approx(2 / 3, abs=0.02)
+    assert third["settle"]["vx"] == pytest.approx(0.5, abs=0.02)  # 0.2 m/s: half a second
+    assert second["settle"]["yaw"] == third["settle"]["yaw"] == 0.0  # the heading itself is never off
+    assert first["settle"] == {"vx": 0.0, "vy": 0.0, "yaw": 0.0}
+    off = judge.walking(_tracking_trajectory(_profile, error=(0.15, 0.0)))["segments"]
+    assert off[2]["settle"]["vx"] is None  # still outside at the segment's end
 
 
 def test_a_summary_line_gives_the_worst_judged_errors():

@@ -1,0 +1,83 @@
+"""Walking profiles by role: the `dev`, `val` and `test` sets, and the command steps.
+
+A set is drawn from a seed (`configs/sets.yaml`) over the robot's training command ranges
+(`episode.vx`, `vy`, `yaw`): 20-s profiles from standing whose segments last 4, 5 or 6 s, each
+segment's vx, vy and heading drawn uniformly over the full ranges, so reversals across the whole
+range occur as a user makes them. The same seed draws the same profiles (NumPy's PCG64).
+
+`steps` are the command steps a response time is measured on: each of vx, vy and the heading
+held at one end of its range for `STEP_AT` s, then stepped to the other end.
+"""
+
+from __future__ import annotations
+
+import importlib.resources
+from typing import Any
+
+import numpy as np
+import yaml
+
+from mjx_cascade.config import Config, ConfigError, robot_config
+from mjx_cascade.scenario import Scenario, parse
+
+ROLES = ("dev", "val", "test")
+SEGMENT_SECONDS = (4.0, 5.0, 6.0)
+DURATION = 20.0  # s
+STEP_AT, STEP_DURATION = 6.0, 12.0  # s: the step, and the profile's end
+STEP_CRUISE = 0.2  # m/s forward while vy or the heading steps: both are judged while walking
+
+
+def sets() -> dict[str, dict[str, dict[str, Any]]]:
+    """`configs/sets.yaml`: robot -> role -> `{seed, count, ...}`."""
+    text = importlib.resources.files("mjx_cascade.configs").joinpath("sets.yaml").read_text()
+    return yaml.safe_load(text)
+
+
+def draw(rng: np.random.Generator, name: str, ranges: dict[str, tuple[float, float]],
+         duration: float = DURATION) -> dict:
+    """One profile as scenario JSON: segments of 4 to 6 s (the last cut at `duration`), each
+    with vx, vy and the heading (`yaw`, relative to the start) uniform over `ranges`."""
+    t, commands = 0.0, []
+    while t < duration:
+        commands.append({"t": t, **{k: float(rng.uniform(*ranges[k])) for k in ("vx", "vy", "yaw")}})
+        t += float(rng.choice(SEGMENT_SECONDS))
+    return {"name": name, "duration": duration, "commands": commands}
+
+
+def command_ranges(cfg: Config) -> dict[str, tuple[float, float]]:
+    e = cfg.episode
+    return {"vx": tuple(e.vx), "vy": tuple(e.vy), "yaw": tuple(e.yaw)}
+
+
+def draw_set(robot: str, role: str) -> list[Scenario]:
+    """The profiles of `robot`'s `role` set (`configs/sets.yaml`), named `<robot>_<role>NN`."""
+    if role not in ROLES:
+        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES)} (or steps)")
+    entry = sets().get(robot, {}).get(role)
+    if entry is None:
+        raise ConfigError(f"{robot} has no {role} set yet" + (
+            ": it is drawn only after the policy it judges is frozen (configs/sets.yaml)" if role == "test" else ""))
+    rng = np.random.default_rng(entry["seed"])
+    ranges = command_ranges(robot_config(robot))
+    return [parse(draw(rng, f"{robot}_{role}{k:02d}", ranges)) for k in range(1, entry["count"] + 1)]
+
+
+def steps(robot: str) -> list[Scenario]:
+    """Command steps across the full ranges: vx low <-> high, vy low <-> high (walking forward at
+    `STEP_CRUISE`), and the heading low <-> high, each stepping at `STEP_AT` s."""
+    ranges = command_ranges(robot_config(robot))
+    cruise = float(np.clip(STEP_CRUISE, *ranges["vx"]))
+    out = []
+    for axis in ("vx", "vy", "yaw"):
+        lo, hi = ranges[axis]
+        for name, (a, b) in (("down", (hi, lo)), ("up", (lo, hi))):
+            held = {"vx": cruise, "vy": 0.0, "yaw": 0.0}
+            first, second = {**held, axis: a}, {**held, axis: b}
+            out.append(parse({"name": f"{robot}_step_{axis}_{name}", "duration": STEP_DURATION,
+                              "commands": [{"t": 0.0, **first}, {"t": STEP_AT, **second}]}))
+    return out
+
+
+def resolve(robot: str, name: str) -> list[Scenario]:
+    """The scenarios of a named set: `dev`, `val`, `test` or `steps`."""
+    return steps(robot) if name == "steps" else draw_set(robot, name)
