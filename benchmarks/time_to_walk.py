@@ -6,8 +6,8 @@
 Trains with the robot's shipped config (plus `--set` overrides) exactly as `mjx-cascade train`
 does (`train.drive`), and every `--check-every` generations runs the ES mean through each
 scenario on the same device (`evaluate.Runner`: the scenarios in one batch through the same
-simulator, compiled once, at the bar's time step `--dt`), judging it with `judge.walking` from the
-recorded trajectory alone. It stops at the first check that passes every scenario, or at the
+simulator, compiled once, at the bar's time step `--dt`), judging it with `evaluate.check` (the
+walking bar, `judge.walking`) from the recorded trajectory alone, as `train.eval_every` does. It stops at the first check that passes every scenario, or at the
 limits, and writes
 
     {"device", "backend", "impl", "robot", "wall_clock_s", "check_s", "physics_steps",
@@ -30,23 +30,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import _xla, config, evaluate, judge, scenario, train
+from mjx_cascade import _xla, config, evaluate, scenario, train
 
 ROOT = Path(__file__).resolve().parents[1]
 # the walking bar's kind of profile: two hand-made and ten random 20-s ones, all flat: one batch
 DEFAULT_SCENARIOS = ("configs/scenarios/speed_profile.json", "configs/scenarios/limit_cycle.json",
                      *(f"benchmarks/scenarios/rand{i}.json" for i in range(401, 411)))
-
-
-def check(batches: list[evaluate.Runner], params: np.ndarray) -> dict:
-    """Every scenario's verdict for one policy."""
-    results = {}
-    for run in batches:
-        for s, traj in zip(run.scenarios, run(params)):
-            m = judge.walking(traj)
-            results[s.name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
-                               "segments": [seg for seg in m["segments"] if "within_bounds" in seg]}
-    return results
 
 
 def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: float, check_every: int,
@@ -67,7 +56,7 @@ def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: flo
         if generation % check_every and generation < max_generations and training_s() < max_seconds:
             return False
         t_check = time.perf_counter()
-        results = check(checks_on, np.asarray(jax.device_get(state.mean)))
+        results = evaluate.check(checks_on, np.asarray(jax.device_get(state.mean)))
         books["check_s"] += time.perf_counter() - t_check
         passed = all(r["passed"] for r in results.values())
         books["checks"].append({"generation": generation, "wall_clock_s": training_s(),

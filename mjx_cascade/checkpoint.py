@@ -34,8 +34,13 @@ def manager(directory: Path, keep: int = 3) -> ocp.CheckpointManager:
     return ocp.CheckpointManager(directory.absolute(), options=options, item_names=("state", "meta"))
 
 
+def record(meta: dict, step: int, params: Any) -> dict:
+    """What a checkpoint (or a policy directory) of `params` at generation `step` records."""
+    return {**meta, "format": FORMAT, "generation": int(step), "params_sha256": params_sha256(params)}
+
+
 def save(mngr: ocp.CheckpointManager, step: int, state: Any, meta: dict) -> None:
-    meta = {**meta, "format": FORMAT, "generation": int(step), "params_sha256": params_sha256(state.mean)}
+    meta = record(meta, step, state.mean)
     mngr.save(step, args=ocp.args.Composite(state=ocp.args.StandardSave(state), meta=ocp.args.JsonSave(meta)))
     mngr.wait_until_finished()
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-VERSION = 2  # of the saved form (`to_dict`); `migrate` reads every earlier one
+VERSION = 3  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp")
@@ -295,11 +295,13 @@ class TrainConfig:
     generations: int
     checkpoint_every: int
     generations_per_call: int  # generations per jitted call (one lax.scan)
+    eval_every: int  # generations between checks of the ES mean on the validation profiles; 0: none
 
     def __post_init__(self) -> None:
         need(self.generations >= 0, "train.generations must be >= 0")
         need(self.checkpoint_every >= 1, "train.checkpoint_every must be >= 1")
         need(self.generations_per_call >= 1, "train.generations_per_call must be >= 1")
+        need(self.eval_every >= 0, "train.eval_every must be >= 0 (0: no checks)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -445,23 +447,31 @@ _V1_DEFAULTS = {
 }
 
 
+# Settings added after version 2, with the value a saved config without them meant.
+_V2_DEFAULTS = {"train": {"eval_every": 0}}
+
+
 def migrate(data: dict) -> dict:
     """A saved config of any version, in the current form (without its `version`).
 
     Version 1 (no `version` key) left out the settings added after a run was saved, meaning the
     behaviour before them (`_V1_DEFAULTS`); it held the desired pelvis height in `rewards.height`
-    and had `regulators.slope_estimation`, which was always on.
+    and had `regulators.slope_estimation`, which was always on. Versions 1 and 2 have no
+    validation checks during training (`_V2_DEFAULTS`).
     """
     need(isinstance(data, dict), "a saved config must be a mapping")
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     version = data.pop("version", 1)
-    need(version in (1, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
+    need(version in (1, 2, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
     if version == 1:
         for section, defaults in _V1_DEFAULTS.items():
             data[section] = {**defaults, **data.get(section, {})}
         need(data["regulators"].pop("slope_estimation", True) is True,
              "a saved config with regulators.slope_estimation false is no longer supported")
         data["regulators"]["height"] = data["rewards"].pop("height")
+    if version < 3:
+        for section, defaults in _V2_DEFAULTS.items():
+            data[section] = {**defaults, **data.get(section, {})}
     return data
 
 

@@ -5,32 +5,37 @@ rank, optax step) is a pure function of the ES state. `lax.scan` runs up to
 `generations_per_call` of them per call, the last ones skipped by `lax.cond` when fewer are due,
 so every call reuses one compiled program. The population axis is sharded over every local
 device. `drive` is the one host loop: it calls the program and hands each call's metrics to a
-callback (the command line's writes metrics and checkpoints; the time-to-walk benchmark checks
-the walking bar).
+callback (the command line's writes metrics, checkpoints and the loggers' records, and every
+`train.eval_every` generations judges the ES mean on the validation profiles; the time-to-walk
+benchmark checks the walking bar).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import shutil
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec
 
-from mjx_cascade import checkpoint, episodes, es, plots, policies, policy, rewards, robots
-from mjx_cascade.config import Config, ConfigError, differences, from_dict, get, to_dict
+from mjx_cascade import checkpoint, episodes, es, evaluate, loggers, plots, policies, policy, profiles, rewards, robots
+from mjx_cascade.config import PAPER_DT, Config, ConfigError, differences, from_dict, get, to_dict
 from mjx_cascade.env import Env, make_env
+from mjx_cascade.scenario import Scenario
 
-METRICS, CONFIG, CURVE = "metrics.jsonl", "config.yaml", "learning_curve.png"
-# What a resumed run may change without --accept-changes: how far and in what calls it goes,
-# not what it trains (each generation's keys come from its index alone).
-RESUMABLE = ("train.generations", "train.checkpoint_every", "train.generations_per_call")
+METRICS, CONFIG, CURVE, BEST, BEST_RECORD = "metrics.jsonl", "config.yaml", "learning_curve.png", "best", "best.json"
+# What a resumed run may change without --accept-changes: how far and in what calls it goes, and
+# how often it is checked, not what it trains (each generation's keys come from its index alone).
+RESUMABLE = ("train.generations", "train.checkpoint_every", "train.generations_per_call", "train.eval_every")
+WORST = ("vx", "vy", "yaw")  # the walking bar's errors: m/s, m/s, rad
 
 
 @dataclasses.dataclass
@@ -270,21 +275,32 @@ class _Run:
 
 def train(cfg: Config, out: str | Path, model_path: str | None = None, progress: bool | None = None,
           log: Callable[[str], None] | None = None, init: str | Path | None = None,
-          accept_changes: bool = False) -> dict:
+          accept_changes: bool = False, log_to: Sequence[str] = (),
+          validation: Sequence[Scenario] | None = None) -> dict:
     """Train (or resume) into `out`: `out/checkpoints/`, `out/metrics.jsonl`, `out/learning_curve.png`
     (redrawn at every checkpoint, and when the run stops or is interrupted) and `out/config.yaml`
     (the resolved config of the latest start; `train --config` reads it back). Off a terminal,
-    each call logs one progress line.
+    each call logs one progress line. `log_to` names the loggers (`loggers.KINDS`) that receive
+    every metrics row too.
+
+    Every `train.eval_every` generations the ES mean runs through the `validation` profiles (the
+    robot's val set unless given) at the paper's time step; the check's figures join that
+    generation's metrics row (`validation_row`), and the best check so far (`validation_score`)
+    is kept as a policy directory in `out/best/` with `best.json` (its generation and verdicts).
 
     `init` warm-starts a new run from another run's policy (`setup`); a run that has a checkpoint
     resumes from it instead, keeping the warm start it began with, and refuses a changed config
     (`check_resume`). Physics steps and wall-clock count this run's only. Everything that can
-    refuse the run (config, model, devices, `init`) is checked before `out` is written.
+    refuse the run (config, model, devices, `init`, loggers, validation profiles) is checked
+    before `out` is written.
     """
     out = Path(out)
     log = log or (lambda msg: print(msg, file=sys.stderr))
+    loggers.check(log_to)
     changes = check_resume(cfg, out, accept_changes)
     trainer = setup(cfg, model_path, None if changes is not None else init)
+    checks = _Validation(validation_runners(cfg, model_path, validation), _best_score(out)) \
+        if cfg.train.eval_every else None
     mngr = checkpoint.manager(out / "checkpoints")
     state, totals = _start(trainer, mngr, changes, init, log, out)
     write_config(cfg, out / CONFIG)
@@ -294,9 +310,12 @@ def train(cfg: Config, out: str | Path, model_path: str | None = None, progress:
     compile_s = time.perf_counter() - t0
     log(f"compiled one call of {cfg.train.generations_per_call} generations in {compile_s:.1f} s "
         f"({trainer.env.impl}, {trainer.devices} {jax.default_backend()} device(s), population {cfg.es.population})")
+    sinks = loggers.make(log_to, out, to_dict(cfg))
     try:
-        state = _train_loop(trainer, state, totals, mngr, out, progress, log)
+        state = _train_loop(trainer, state, totals, mngr, out, progress, log, sinks, checks)
     finally:  # an interrupted run still leaves its curve so far
+        for sink in sinks:
+            sink.close()
         _learning_curve(cfg, out)
     if mngr.latest_step() != int(state.generation):  # nothing was due (already trained that far): still leave one
         checkpoint.save(mngr, int(state.generation), state, metadata(trainer, int(state.generation),
@@ -339,38 +358,116 @@ def _start(trainer: Trainer, mngr: Any, changes: dict | None, init: Any, log: Ca
 
 
 def _train_loop(trainer: Trainer, state: es.ESState, totals: _Run, mngr: Any, out: Path,
-                progress: bool | None, log: Callable[[str], None]) -> es.ESState:
+                progress: bool | None, log: Callable[[str], None], sinks: list[loggers.Logger],
+                checks: _Validation | None) -> es.ESState:
     cfg = trainer.cfg
     bar = _progress(progress, cfg.train.generations, int(state.generation))
     lines = progress is None and bar is None  # off a terminal: one plain line per call
     start, wall0 = time.perf_counter(), totals.wall_clock
+    postfix = {}  # the bar's: the latest fitness, and the latest check's verdict
 
     with (out / METRICS).open("a") as f:
         def on_call(state, rows, seconds):
             steps = sum(r["physics_steps"] for r in rows)
+            generation, last = rows[-1]["generation"], rows[-1]
+            params = results = None
+            if checks and generation % cfg.train.eval_every == 0:
+                t_check = time.perf_counter()
+                params = np.asarray(jax.device_get(state.mean))
+                results = evaluate.check(checks.runners, params)
+                last.update(validation_row(results), **{"val/seconds": time.perf_counter() - t_check})
             for row in rows:
                 totals.physics_steps += row["physics_steps"]
                 row.update(physics_steps_total=totals.physics_steps, wall_clock_s=wall0 + time.perf_counter() - start,
                            samples_per_s=steps / seconds)
                 f.write(json.dumps(row) + "\n")
             f.flush()
+            for sink in sinks:
+                for row in rows:
+                    sink.log(row, row["generation"])
             totals.wall_clock = wall0 + time.perf_counter() - start
-            generation = rows[-1]["generation"]
-            if generation % cfg.train.checkpoint_every == 0 or generation == cfg.train.generations:
-                checkpoint.save(mngr, generation, state,
-                                metadata(trainer, generation, totals.physics_steps, totals.wall_clock, totals.history))
+            due = generation % cfg.train.checkpoint_every == 0 or generation == cfg.train.generations
+            best = results is not None and (checks.best is None or validation_score(last) > checks.best)
+            if due or best:
+                meta = metadata(trainer, generation, totals.physics_steps, totals.wall_clock, totals.history)
+            if best:
+                _keep_best(out, checkpoint.record(meta, generation, params), params, last, results)
+                checks.best = validation_score(last)
+            if due:
+                checkpoint.save(mngr, generation, state, meta)
                 _learning_curve(cfg, out)
+            val = "" if results is None else f"val passed {last['val/passed']}/{last['val/count']}"
             if lines:
-                log(f"generation {generation}/{cfg.train.generations}: fitness {rows[-1]['fitness_mean']:.3f}, "
-                    f"{seconds:.1f} s, {steps / seconds:,.0f} samples/s")
+                log(f"generation {generation}/{cfg.train.generations}: fitness {last['fitness_mean']:.3f}, "
+                    f"{seconds:.1f} s, {steps / seconds:,.0f} samples/s"
+                    + (f", {val} in {last['val/seconds']:.1f} s{' (best so far)' if best else ''}" if val else ""))
             if bar:
+                postfix.update(fitness=f"{last['fitness_mean']:.3f}",
+                               **({"val": f"{last['val/passed']}/{last['val/count']}"} if val else {}))
                 bar.update(len(rows))
-                bar.set_postfix(fitness=f"{rows[-1]['fitness_mean']:.3f}")
+                bar.set_postfix(postfix)
 
-        state = drive(trainer, state, cfg.train.generations, cfg.train.checkpoint_every, on_call)
+        # every call ends where a checkpoint or a check is due
+        every = math.gcd(cfg.train.checkpoint_every, cfg.train.eval_every)
+        state = drive(trainer, state, cfg.train.generations, every, on_call)
     if bar:
         bar.close()
     return state
+
+
+@dataclasses.dataclass
+class _Validation:
+    """`train.eval_every`'s checks: the validation profiles' compiled batches, and the score of the
+    best check so far (in `out/best/`, kept across resumes)."""
+
+    runners: list[evaluate.Runner]
+    best: tuple[int, float] | None
+
+
+def validation_runners(cfg: Config, model_path: str | None = None,
+                       scenarios: Sequence[Scenario] | None = None) -> list[evaluate.Runner]:
+    """The evaluation batches of `scenarios` (default: the robot's val set, `profiles.draw_set`) at
+    the paper's time step, built once for every check of the run (each compiles at its first)."""
+    scenarios = profiles.draw_set(cfg.robot, "val") if scenarios is None else scenarios
+    return evaluate.runners(cfg.override(**{"physics.dt": PAPER_DT}), scenarios, model_path)
+
+
+def validation_row(results: dict[str, dict]) -> dict:
+    """A check's figures for its generation's metrics row (`evaluate.check`'s verdicts): profiles
+    passed, run and fallen, and the worst judged error of each kind over every profile (where any
+    segment was long enough to judge)."""
+    judged = [seg for r in results.values() for seg in r["segments"]]
+    worst = {f"val/worst_{k}": max(seg[f"{k}_mae"] for seg in judged) for k in WORST} if judged else {}
+    return {"val/passed": sum(r["passed"] for r in results.values()), "val/count": len(results),
+            "val/fell": sum(r["fell"] for r in results.values()), **worst}
+
+
+def validation_score(row: dict) -> tuple[int, float]:
+    """Higher is better: more profiles passed, then the smaller sum of the worst errors."""
+    return row["val/passed"], -sum(row.get(f"val/worst_{k}", 0.0) for k in WORST)
+
+
+def _best_score(out: Path) -> tuple[int, float] | None:
+    path = out / BEST / BEST_RECORD
+    return validation_score(json.loads(path.read_text())["validation"]) if path.is_file() else None
+
+
+def _keep_best(out: Path, record: dict, params: np.ndarray, row: dict, results: dict) -> None:
+    """`out/best/`: the policy directory of `params` (`policies.write`, with the run's metrics so far)
+    and `best.json` (its generation, the check's figures and each profile's verdict). It is written
+    beside and renamed into place, so an interrupted write leaves the previous best."""
+    partial, old, best = out / f".{BEST}.partial", out / f".{BEST}.old", out / BEST
+    for leftover in (partial, old):
+        shutil.rmtree(leftover, ignore_errors=True)
+    rows = [json.loads(line) for line in (out / METRICS).read_text().splitlines() if line]
+    policies.write(partial, record, params, [r for r in rows if r["generation"] <= record["generation"]])
+    figures = {k: v for k, v in row.items() if k.startswith("val/")}
+    (partial / BEST_RECORD).write_text(json.dumps({"generation": record["generation"], "validation": figures,
+                                                   "profiles": results}, indent=1) + "\n")
+    if best.exists():
+        best.rename(old)
+    partial.rename(best)
+    shutil.rmtree(old, ignore_errors=True)
 
 
 def _progress(enabled: bool | None, total: int, initial: int) -> Any:

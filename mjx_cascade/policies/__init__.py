@@ -82,16 +82,21 @@ def load(source: str | Path) -> Policy:
 def export(run: str | Path, dest: str | Path) -> Path:
     """Write the latest checkpoint of training run `run` as a policy directory `dest`: its
     parameters and record, and the run's metrics up to that generation with their learning curve."""
+    record, params = checkpoint.read(run)
+    rows = [json.loads(line) for line in (Path(run) / METRICS).read_text().splitlines() if line]
+    return write(dest, record, params, [r for r in rows if r["generation"] <= record["generation"]])
+
+
+def write(dest: str | Path, record: dict, params: np.ndarray, metrics: list[dict]) -> Path:
+    """`dest` as a policy directory: `params` with their `record` (a checkpoint's), and the
+    run's `metrics` rows up to them with their learning curve."""
     from mjx_cascade import plots
 
-    run, dest = Path(run), Path(dest)
-    record, params = checkpoint.read(run)
+    dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(dest / PARAMS, params=np.asarray(params, np.float32))
     (dest / RECORD).write_text(json.dumps(record, indent=1) + "\n")
-    rows = [line for line in (run / METRICS).read_text().splitlines()
-            if line and json.loads(line)["generation"] <= record["generation"]]
-    (dest / METRICS).write_text("".join(f"{line}\n" for line in rows))
+    (dest / METRICS).write_text("".join(json.dumps(row) + "\n" for row in metrics))
     plots.learning_curve(dest / METRICS, dest / CURVE, title=f"{record['robot']}: {record['generation']} "
                          f"generations, {record['physics_steps']:.3g} physics steps")
     return dest
