@@ -21,6 +21,7 @@ from mjx_cascade import bundle, checkpoint, judge, plots, policies, policy, robo
 from mjx_cascade import video as video_lib
 from mjx_cascade.config import Config, ConfigError, check_controller_settings
 from mjx_cascade.env import make_env
+from mjx_cascade.progress import Batches, Tick
 from mjx_cascade.robots import scene
 from mjx_cascade.robots.base import Robot
 from mjx_cascade.scenario import Scenario
@@ -58,7 +59,7 @@ def policy_record(found: policies.Policy, settings: dict | None = None) -> dict:
 
 
 class Runner:
-    """`runner(params) -> [trajectory, ...]` for a batch of scenarios, compiled once for any policy.
+    """`runner(params, progress) -> [trajectory, ...]` for a batch of scenarios, compiled once for any policy.
 
     Shorter scenarios hold their last command to the batch's longest duration and are cut back to
     their own. Each trajectory is a dict of NumPy arrays. `env.robot` is the simulated robot, its
@@ -75,7 +76,7 @@ class Runner:
         self.num_params = network.num_params
         self.every = every = max(1, int(RECORD_PERIOD / env.dt + 1e-9))
         self.records = [int(np.ceil(s.duration / (every * env.dt))) for s in scenarios]
-        chunks = max(self.records)
+        self.chunks = chunks = max(self.records)
         self.times = (np.arange(chunks * every) + 1) * env.dt  # the time at the end of each physics step
         shape = (len(scenarios), chunks, every, 3)
         self.cmd = np.stack([s.command_schedule(self.times - env.dt) for s in scenarios]).reshape(shape)
@@ -86,15 +87,28 @@ class Runner:
         model, axes = world.terrains(env.robot.model, env.model, [s.terrain for s in scenarios])
         batch = world.World(model, axes, schedule)
         key = jax.random.PRNGKey(0)  # every scenario starts alike
-        self._simulate = jax.jit(lambda p: rollout.simulate(env, p, key, batch, chunks * every, every, chunks,
-                                                            rollout.trajectory)[1])
+        steps, per_call = chunks * every, rollout.per_call(chunks)
+        self._start = jax.jit(lambda p: rollout.start(env, p, key, batch))
+        self._advance = jax.jit(lambda p, carry, first: rollout.advance(
+            env, p, carry, batch, steps, every, first, per_call, rollout.trajectory))
 
-    def __call__(self, params: np.ndarray) -> list[dict]:
+    @property
+    def seconds(self) -> float:
+        """The seconds the batch simulates: its longest scenario's, in whole records."""
+        return self.chunks * self.every * self.env.dt
+
+    def __call__(self, params: np.ndarray, progress: Tick | None = None) -> list[dict]:
+        """The batch's trajectories under `params`, telling `progress` the seconds simulated as they
+        pass (`rollout.record_in_calls`: the same numbers with or without it)."""
         env = self.env
         if params.shape[0] != self.num_params:
             raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
                               f"{self.num_params}")
-        qpos, qvel, ground, stance = (np.swapaxes(x, 0, 1) for x in jax.device_get(self._simulate(jnp.asarray(params))))
+        p = jnp.asarray(params)
+        seconds = None if progress is None else lambda done, _: progress(done * self.every * env.dt)
+        records = rollout.record_in_calls(lambda carry, first: self._advance(p, carry, first), self._start(p),
+                                          self.chunks, seconds)
+        qpos, qvel, ground, stance = (np.swapaxes(x, 0, 1) for x in records)
         t = self.times[self.every - 1::self.every]  # exact step counts x dt (MJX's float32 clock drifts)
         return [{
             "t": t[:n], "qpos": qpos[i, :n], "qvel": qvel[i, :n], "cmd": self.cmd[i, :n, -1],
@@ -119,6 +133,18 @@ def runners(cfg: Config, scenarios: Sequence[Scenario], model_path: str | None =
     return [Runner(cfg, batch, model_path) for batch in (plane, fields) if batch]
 
 
+def check(batches: Sequence[Runner], params: np.ndarray) -> dict[str, dict]:
+    """The walking bar's verdict on one policy in every scenario of `batches` (`runners`), by name:
+    `{passed, fell, fall_time, segments}`, the segments only those judged."""
+    results = {}
+    for runner in batches:
+        for s, traj in zip(runner.scenarios, runner(params)):
+            m = judge.walking(traj)
+            results[s.name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
+                               "segments": [seg for seg in m["segments"] if "within_bounds" in seg]}
+    return results
+
+
 def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | None = None) -> dict:
     """Simulate `scenario` once; returns the trajectory as a dict of NumPy arrays."""
     return Runner(cfg, [scenario], model_path)(np.asarray(params))[0]
@@ -126,21 +152,32 @@ def run(cfg: Config, params: np.ndarray, scenario: Scenario, model_path: str | N
 
 def evaluate(robot: str, scenarios: Sequence[Scenario], out: str | Path, checkpoint_dir: str | None = None,
              model_path: str | None = None, dt: float | None = None, impl: str | None = None,
-             video: bool = True, settings: dict | None = None) -> list[dict]:
+             video: bool = True, settings: dict | None = None, progress: Batches | None = None) -> list[dict]:
     """Run `scenarios` and write, for each, `trajectory.npz`, `metrics.json`, PNG plots and, where
-    MuJoCo can render, `video.gif` (`metrics["video"]` names the file or says why there is none).
+    MuJoCo can render, `video.mp4` or `video.gif` (`metrics["video"]` names the file or says why
+    there is none).
 
     One scenario writes into `out`; several write into `out/<name>/`, plus `out/summary.json`
     (each scenario's verdict). `settings` change the policy's controller (`load_policy`); each
-    metrics file records them.
+    metrics file records them. `progress` hears of each batch and its simulated seconds.
     """
     scenarios = checked_names(scenarios)
     cfg, found = load_policy(robot, checkpoint_dir, dt, impl, settings)
     runs = {}
-    for runner in runners(cfg, scenarios, model_path):
-        for scenario, traj in zip(runner.scenarios, runner(found.params)):
+    batches = runners(cfg, scenarios, model_path)
+    for i, runner in enumerate(batches):
+        title = f"batch {i + 1}/{len(batches)}: {describe(runner.scenarios)}"
+        tick = progress(title, runner.seconds) if progress else None
+        for scenario, traj in zip(runner.scenarios, runner(found.params, tick)):
             runs[scenario.name] = (traj, runner.env.robot)
     return write(robot, scenarios, runs, policy_record(found, settings), Path(out), video)
+
+
+def describe(scenarios: Sequence[Scenario]) -> str:
+    """A batch in a few words: `3 scenarios on the plane (speed_profile, push, limit_cycle)`."""
+    ground = "the plane" if scenarios[0].terrain["type"] == "flat" else "height fields"
+    names = ", ".join(s.name for s in scenarios[:3]) + (", ..." if len(scenarios) > 3 else "")
+    return f"{len(scenarios)} scenario{'s' * (len(scenarios) > 1)} on {ground} ({names})"
 
 
 def checked_names(scenarios: Sequence[Scenario]) -> list[Scenario]:
@@ -181,7 +218,6 @@ def _write(robot: str, scenario: Scenario, traj: dict, record: dict, out: Path, 
     plots.tracking(traj, out / "tracking.png", title=f"{robot}: {scenario.name}")
     plots.limit_cycles(traj, out / "limit_cycles.png", title=f"{robot}: {scenario.name}")
     if render is not None:
-        note = video_lib.render(traj, render.model, out / "video.gif", render.pelvis_body)
-        metrics["video"] = note or "video.gif"
+        metrics["video"] = video_lib.render(traj, render.model, out, render.pelvis_body)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
+from collections import Counter
 from pathlib import Path
 from typing import NamedTuple
 
@@ -29,6 +30,7 @@ from mjx_cascade.config import Config, ConfigError
 from mjx_cascade.env import Env, make_env
 from mjx_cascade.evaluate import RECORD_PERIOD, joint_layout, load_policy, policy_record
 from mjx_cascade.physics import resolve_impl
+from mjx_cascade.progress import Batches, Tick
 from mjx_cascade.robots import scene
 
 AXES = ("push", "slope", "rough", "mass")
@@ -95,8 +97,9 @@ def trials(sweep: Sweep, step_time: float) -> Trials:
                   np.array(force), np.array(mass), list(terrain))
 
 
-def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep) -> dict:
-    """Run trials `t` in one jitted call, each on its own terrain (the env's model holds them all).
+def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep, progress: Tick | None = None) -> dict:
+    """Run trials `t` as one compiled batch, each on its own terrain (the env's model holds them all),
+    telling `progress` the seconds simulated as they pass (`rollout.record_in_calls`).
 
     Returns `qpos [B, R, nq]`, `qvel [B, R, nv]`, `ground [B, R]` recorded every 10 ms and the
     record times `t [R]`.
@@ -108,44 +111,65 @@ def simulate(env: Env, params: np.ndarray, t: Trials, sweep: Sweep) -> dict:
     pushes = [[] if not np.isfinite(pt) else [(pt, sweep.push_duration, f)] for pt, f in zip(t.push_t, t.force)]
     sched = world.schedule([np.concatenate([[0.0], c])[None] for c in t.cmd], pushes, dt, records * every)
 
-    @jax.jit
-    def run(params, keys, mass):
+    def trial_world(keys, mass):  # each call draws the same models from the same keys
         k_model, k_reset = jax.vmap(jax.random.split)(keys).transpose(1, 0, 2)
         model = randomization.randomize(env.model, k_model, rand)
         model = model.tree_replace({"body_mass": model.body_mass * mass[:, None]})
         model, axes = world.terrains(env.robot.model, model, t.terrain, randomization.in_axes(env.model))
-        batch = world.World(model, axes, sched)
-        return rollout.simulate(env, params, k_reset, batch, records * every, every, records, rollout.trajectory)[1]
+        return world.World(model, axes, sched), k_reset
 
-    keys = jax.random.split(jax.random.PRNGKey(sweep.seed), len(t.label))
-    qpos, qvel, ground, _ = jax.device_get(run(jnp.asarray(params), keys, jnp.asarray(t.mass, jnp.float32)))
+    @jax.jit
+    def start(params, keys, mass):
+        batch, k_reset = trial_world(keys, mass)
+        return rollout.start(env, params, k_reset, batch)
+
+    @jax.jit
+    def advance(params, keys, mass, carry, first):
+        batch, _ = trial_world(keys, mass)
+        return rollout.advance(env, params, carry, batch, records * every, every, first, rollout.per_call(records),
+                               rollout.trajectory)
+
+    p, keys = jnp.asarray(params), jax.random.split(jax.random.PRNGKey(sweep.seed), len(t.label))
+    mass = jnp.asarray(t.mass, jnp.float32)
+    seconds = None if progress is None else lambda done, _: progress(done * every * dt)
+    qpos, qvel, ground, _ = rollout.record_in_calls(lambda carry, first: advance(p, keys, mass, carry, first),
+                                                    start(p, keys, mass), records, seconds)
     swap = lambda x: np.swapaxes(np.asarray(x), 0, 1)  # noqa: E731
     return {"t": (np.arange(records) + 1) * every * dt, "qpos": swap(qpos), "qvel": swap(qvel), "ground": swap(ground)}
 
 
-def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = None) -> tuple[dict, dict]:
+def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = None,
+        progress: Batches | None = None) -> tuple[dict, dict]:
     """`(results, trajectories)`: per-trial verdicts and success rates, and the recorded trials.
+    `progress` hears of each batch (the trials on the plane, then those on height fields).
 
     `results["cells"]` maps each axis to rows `{level, direction, trials, successes, rate}`;
     `results["trials"]` lists every trial's label, push time and verdict.
     """
     t = trials(sweep, cfg.gait.step_time)
     network = policy.for_controller(cfg, len(robots.get(cfg.robot).learned), jax.random.PRNGKey(0))
+    on_plane = np.array([tr["type"] == "flat" for tr in t.terrain])
+    batches = [idx for idx in (np.nonzero(on_plane)[0], np.nonzero(~on_plane)[0]) if len(idx)]
     traj = {}
-    for on_plane in (True, False):
-        idx = np.nonzero([(tr["type"] == "flat") == on_plane for tr in t.terrain])[0]
-        if not len(idx):
-            continue
+    for b, idx in enumerate(batches):
         sub = Trials([t.label[i] for i in idx], t.cmd[idx], t.push_t[idx], t.force[idx], t.mass[idx],
                      [t.terrain[i] for i in idx])
         kinds = scene.distinct(sub.terrain)
         env = make_env(cfg, network.apply, model_path, terrain=kinds[0] if len(kinds) == 1 else kinds)
-        out = simulate(env, params, sub, sweep)
+        title = f"batch {b + 1}/{len(batches)}: {describe(sub)}"
+        out = simulate(env, params, sub, sweep, progress(title, sweep.seconds) if progress else None)
         for j, i in enumerate(idx):
             traj[i] = {k: out[k] if k == "t" else out[k][j] for k in out}
     verdicts = [judge.robust(traj[i]["t"], traj[i]["qpos"], traj[i]["qvel"], traj[i]["ground"], t.cmd[i], sweep.bar)
                 for i in range(len(t.label))]
     return summarize(t, verdicts, sweep), {"trials": t, "traj": traj, **joint_layout(env.robot)}
+
+
+def describe(t: Trials) -> str:
+    """A batch in a few words: `370 trials on the plane: push 280, mass 90`."""
+    ground = "the plane" if t.terrain[0]["type"] == "flat" else "height fields"
+    axes = ", ".join(f"{axis} {count}" for axis, count in Counter(label[0] for label in t.label).items())
+    return f"{len(t.label)} trials on {ground}: {axes}"
 
 
 def summarize(t: Trials, verdicts: list[dict], sweep: Sweep) -> dict:
@@ -226,16 +250,17 @@ def figures(results: dict, sim: dict, out: Path, title: str) -> list[str]:
 
 def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | None = None,
           model_path: str | None = None, dt: float | None = None, impl: str | None = None,
-          settings: dict | None = None) -> tuple[dict, dict]:
+          settings: dict | None = None, progress: Batches | None = None) -> tuple[dict, dict]:
     """Run the sweep with a checkpoint or the shipped policy and write `robustness.json`,
     `robustness.md`, `robustness.png` and the Fig. 11, 12 and 14 plots into `out`. `settings`
-    change the policy's controller (`evaluate.load_policy`); the results record them.
+    change the policy's controller (`evaluate.load_policy`); the results record them. `progress`
+    hears of each batch and its simulated seconds.
 
     Returns `(results, trajectories)` as `run` does, the results with the run's provenance.
     """
     cfg, found = load_policy(robot, checkpoint_dir, dt, impl, settings)
     start = time.perf_counter()
-    results, sim = run(cfg, found.params, sweep_cfg, model_path)
+    results, sim = run(cfg, found.params, sweep_cfg, model_path, progress)
     results = {
         "robot": robot,
         "device": jax.devices()[0].device_kind,

@@ -3,7 +3,9 @@ episode books kept one layer above the environment (Brax's `EpisodeWrapper` idea
 
 `simulate` serves training (stopping once every episode is done), evaluation and the robustness
 sweep (recording the trajectory every chunk of physics steps) alike, and builds the MJX data for
-the batch it runs, so MuJoCo Warp's contact buffers hold every environment's contacts.
+the batch it runs, so MuJoCo Warp's contact buffers hold every environment's contacts. Evaluation
+and the sweep run its two halves, `start` and `advance`, through `record_in_calls`: a tenth of the
+recording per call of one compiled program, so that they can say how far they are.
 
 The loop over time is written at the batch level (chunks of vmapped steps inside a `scan` or a
 `while_loop`) rather than as a vmapped per-episode loop: JAX's batching of a `while_loop`
@@ -17,6 +19,7 @@ from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 from jax import Array
 
@@ -77,6 +80,51 @@ def trajectory(env: Env, state: EnvState, world: World) -> tuple[Array, Array, A
     return state.data.qpos, state.data.qvel, ground, state.ctrl.stance
 
 
+Carry = tuple[EnvState, Books]
+Progress = Callable[[int, int], None]  # (records done, records in all)
+CALLS = 10  # calls, and progress reports, of a simulation recorded from the host
+
+
+def start(env: Env, params: Array, keys: Array, world: World) -> Carry:
+    """A batch of environments reset under its first commands, with fresh books (`simulate`'s
+    arguments)."""
+    sched = world.schedule
+    batch = sched.command.shape[0]
+    reset = _over(env.reset, (0 if params.ndim == 2 else None, 0 if keys.ndim == 2 else None, 0, world.axes, None),
+                  batch)
+    return reset(params, keys, sched.command_at(0), world.model, env.data_template(batch)), Books.start(batch)
+
+
+def _chunk(env: Env, params: Array, world: World, episode_steps: int, chunk: int) -> Callable[[Array, Carry], Carry]:
+    """`run_chunk(i, carry)`: the batch advanced through physics steps `i * chunk` to `(i + 1) * chunk - 1`."""
+    sched = world.schedule
+    step = _over(env.step, (0 if params.ndim == 2 else None, 0, 0, 0 if sched.pushes else None, world.axes),
+                 sched.command.shape[0])
+
+    def run_chunk(i: Array, carry: Carry) -> Carry:
+        def physics(carry, n):
+            state, books = carry
+            state, report = step(params, state, sched.command_at(n), sched.force_at(n), world.model)
+            return (state, keep_books(books, report, env, episode_steps)), None
+
+        return jax.lax.scan(physics, carry, i * chunk + jnp.arange(chunk))[0]
+
+    return run_chunk
+
+
+def advance(env: Env, params: Array, carry: Carry, world: World, episode_steps: int, chunk: int, first: Array | int,
+            chunks: int, record: Record) -> tuple[Carry, Any]:
+    """`carry` advanced through chunks `first` to `first + chunks - 1` of `chunk` physics steps,
+    keeping `record(...)` after each: `(carry, records [chunks, ...])`."""
+    run_chunk = _chunk(env, params, world, episode_steps, chunk)
+
+    def recorded(carry, i):
+        carry = run_chunk(i, carry)
+        return carry, record(env, carry[0], world)
+
+    return jax.lax.scan(recorded, carry, first + jnp.arange(chunks))
+
+
 def simulate(env: Env, params: Array, keys: Array, world: World, episode_steps: int, chunk: int,
              chunks: int, record: Record | None = None) -> tuple[Books, Any]:
     """Reset a batch of environments and advance it `chunks` times by `chunk` physics steps, keeping
@@ -87,35 +135,39 @@ def simulate(env: Env, params: Array, keys: Array, world: World, episode_steps: 
     `keys` one reset key per environment `[B, 2]`, or one `[2]` that starts them all alike.
     Episodes last `episode_steps` physics steps; their robots simulate on with the batch after.
     """
-    sched = world.schedule
-    batch = sched.command.shape[0]
-    p_axis = 0 if params.ndim == 2 else None
-    reset = _over(env.reset, (p_axis, 0 if keys.ndim == 2 else None, 0, world.axes, None), batch)
-    step = _over(env.step, (p_axis, 0, 0, 0 if sched.pushes else None, world.axes), batch)
+    carry = start(env, params, keys, world)
+    if record is not None:
+        (_, books), records = advance(env, params, carry, world, episode_steps, chunk, 0, chunks, record)
+        return books, records
+    run_chunk = _chunk(env, params, world, episode_steps, chunk)
 
-    def run_chunk(i: Array, carry: tuple) -> tuple:
-        def physics(carry, n):
-            state, books = carry
-            state, report = step(params, state, sched.command_at(n), sched.force_at(n), world.model)
-            return (state, keep_books(books, report, env, episode_steps)), None
+    def more(c):
+        return (c[0] < chunks) & ~jnp.all(c[2].done)
 
-        return jax.lax.scan(physics, carry, i * chunk + jnp.arange(chunk))[0]
+    _, _, books = jax.lax.while_loop(more, lambda c: (c[0] + 1, *run_chunk(c[0], c[1:])), (0, *carry))
+    return books, None
 
-    state = reset(params, keys, sched.command_at(0), world.model, env.data_template(batch))
-    carry = (state, Books.start(batch))
-    if record is None:
-        def more(c):
-            return (c[0] < chunks) & ~jnp.all(c[2].done)
 
-        _, _, books = jax.lax.while_loop(more, lambda c: (c[0] + 1, *run_chunk(c[0], c[1:])), (0, *carry))
-        return books, None
+def per_call(chunks: int) -> int:
+    """Chunks per call of a recording of `chunks` made in `CALLS` calls (`record_in_calls`)."""
+    return -(-chunks // CALLS)
 
-    def recorded(carry, i):
-        carry = run_chunk(i, carry)
-        return carry, record(env, carry[0], world)
 
-    (_, books), records = jax.lax.scan(recorded, carry, jnp.arange(chunks))
-    return books, records
+def record_in_calls(advance_call: Callable[[Any, Array], tuple[Any, Any]], carry: Any, chunks: int,
+                    progress: Progress | None = None) -> Any:
+    """The records `[chunks, ...]` (NumPy) of a recorded simulation run from the host as calls of one
+    compiled `advance_call(carry, first) -> (carry, records [per_call(chunks), ...])` from chunk 0,
+    telling `progress(records done, chunks)` after each call. The last call runs past `chunks` and
+    its extra records are dropped: one program serves every call. Progress comes from the host, not
+    from a callback inside the program, because JAX keeps no program with a host callback in its
+    persistent compilation cache."""
+    n, parts = per_call(chunks), []
+    for first in range(0, chunks, n):
+        carry, records = advance_call(carry, jnp.int32(first))
+        parts.append(jax.device_get(records))
+        if progress:
+            progress(min(first + n, chunks), chunks)
+    return jax.tree.map(lambda *xs: np.concatenate(xs)[:chunks], *parts)
 
 
 def _lone(x: Any, axes: Any) -> Any:

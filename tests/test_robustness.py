@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from mjx_cascade import judge, robustness
+from mjx_cascade import judge, progress, robustness
 from mjx_cascade.config import ConfigError
 from mjx_cascade.robots import scene
 
@@ -83,12 +83,18 @@ def test_one_height_field_holds_a_list_of_terrains(cassie_cfg):
 
 
 @pytest.mark.slow
-def test_a_small_sweep_with_the_shipped_policy(tmp_path):
-    """Pushes of 0 and 400 N and slopes of +-11 degrees, one trial each, in two compiled calls."""
+def test_a_small_sweep_with_the_shipped_policy(tmp_path, capsys):
+    """Pushes of 0 and 400 N and slopes of +-11 degrees, one trial each, in two batches, each
+    saying its progress."""
     sweep = robustness.Sweep(axes=("push", "slope"), trials=1, seconds=4.5, push_after=2.0,
                              bar=judge.RobustnessBar(judge_seconds=1.5), push_forces=(0.0, 400.0), slopes=(-11.0, 11.0))
     # the config's own k_phr, so the program is the same; the results must still record the change
-    results, sim = robustness.sweep("cassie", tmp_path, sweep, dt=0.002, settings={"regulators.k_phr": "0.3"})
+    results, sim = robustness.sweep("cassie", tmp_path, sweep, dt=0.002, settings={"regulators.k_phr": "0.3"},
+                                    progress=progress.Report("robustness", bar=False))
+    said = [line for line in capsys.readouterr().err.splitlines() if line.startswith("robustness: ")]
+    assert said[0] == "robustness: batch 1/2: 8 trials on the plane: push 8" and len(said) == 22
+    assert said[11] == "robustness: batch 2/2: 2 trials on height fields: slope 2"
+    assert said[10] == said[-1] == "robustness: 100% (4.5 of 4.5 s simulated)"
     rows = {(r["level"], r["direction"]): r for r in results["cells"]["push"]}
     assert all(rows[(0.0, d)]["rate"] == 1.0 for d in robustness.DIRECTIONS)  # it walks undisturbed
     assert all(rows[(400.0, d)]["rate"] == 0.0 for d in robustness.DIRECTIONS)  # and 400 N knocks it over

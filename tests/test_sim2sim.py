@@ -37,7 +37,8 @@ def test_sim2sim_runs_an_exported_bundle_in_mujoco_c_into_evals_files(tmp_path, 
     code, out = _main(["sim2sim", "--bundle", tmp_path / "bundle", "--scenario", DATA / "short.json",
                        "--out", tmp_path / "run", "--dt", "0.0005", "--no-video"], capsys)
     assert code == 0, out.err
-    assert "cassie / short: passed" in out.out and "sim2sim 1/1 short" in out.err
+    assert "cassie / short: passed" in out.out and "sim2sim: scenario 1/1: short" in out.err
+    assert "sim2sim: 50% (0.15 of 0.3 s simulated)" in out.err and "sim2sim: 100% (0.3 of 0.3 s simulated)" in out.err
     traj = dict(np.load(tmp_path / "run" / "trajectory.npz"))
     assert set(traj) == EVAL_KEYS
     s = scenario.load(DATA / "short.json")
