@@ -11,8 +11,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared"
-DIGIT_MODEL = SHARED / "models" / "digit" / "digit-v3.xml"
 DATA = Path(__file__).parent / "data"
+DIGIT_MISSING = "Digit's model is not redistributable: set DIGIT_MODEL_PATH to digit-v3.xml"
 
 # Offline: mujoco-menagerie reads Cassie from the shared copy instead of downloading it. A relative
 # MENAGERIE_ROOT (the README's test command) is made absolute for subprocesses with other cwds.
@@ -55,6 +55,30 @@ def compilation_cache(tmp_path_factory):
 
     _xla.enable_compilation_cache(path)
     return path
+
+
+def digit_model_path() -> Path | None:
+    """Digit's model: `DIGIT_MODEL_PATH` where set, else the copy in ../shared; None where that is no file."""
+    path = Path(os.environ.get("DIGIT_MODEL_PATH") or SHARED / "models" / "digit" / "digit-v3.xml")
+    return path if path.is_file() else None
+
+
+@pytest.fixture(scope="session")
+def digit_model() -> Path:
+    """Digit's model file. Without one a test that needs it is skipped, since Agility's model cannot
+    ship with the code; where `MJX_CASCADE_REQUIRE_DIGIT=1` (CI, which has the model) it fails, so a
+    lost model cannot pass unnoticed as skips."""
+    path = digit_model_path()
+    if path is None and os.environ.get("MJX_CASCADE_REQUIRE_DIGIT") == "1":
+        pytest.fail(DIGIT_MISSING, pytrace=False)
+    if path is None:
+        pytest.skip(DIGIT_MISSING)
+    return path
+
+
+def model_for(request: pytest.FixtureRequest, robot: str) -> Path | None:
+    """The model file a test of `robot` passes: Digit's (`digit_model`), else None for the default."""
+    return request.getfixturevalue("digit_model") if robot == "digit" else None
 
 
 @pytest.fixture(scope="session")

@@ -12,7 +12,7 @@ from mjx_cascade.config import ConfigError
 from mjx_cascade.robots import digit as digit_lib
 from mjx_cascade.robots import base, linkage, scene
 from mjx_cascade.rotations import quat_to_rpy
-from conftest import DIGIT_MODEL
+from conftest import SHARED
 
 
 def test_cassie_model_is_menageries_with_feet_only_contacts(cassie, cassie_cfg):
@@ -94,14 +94,14 @@ def test_terrains_are_level_at_the_start_and_match_the_height_field(terrain, cas
         assert scene.ground_height(terrain, 3.0, 0.0) == pytest.approx(2.0 * np.tan(np.radians(8.0)))
 
 
-def test_digit_definition_and_model_checks():
+def test_digit_definition_and_model_checks(digit_model):
     digit = robots.get("digit")
     assert len(digit.learned) == 7
-    assert robots.model_path(digit, str(DIGIT_MODEL)) == DIGIT_MODEL
+    assert robots.model_path(digit, str(digit_model)) == digit_model
     with pytest.raises(ConfigError, match="not found"):
         robots.model_path(digit, "/no/such/digit.xml")
     with pytest.raises(ConfigError, match="not a digit model"):
-        robots.model_path(digit, str(DIGIT_MODEL.parents[2] / "menagerie" / "agility_cassie" / "cassie.xml"))
+        robots.model_path(digit, str(SHARED / "menagerie" / "agility_cassie" / "cassie.xml"))
 
 
 @pytest.fixture(scope="module")
@@ -110,8 +110,8 @@ def digit_cfg():
 
 
 @pytest.fixture(scope="module")
-def digit(digit_cfg):
-    return robots.build(robots.get("digit"), digit_cfg.physics, str(DIGIT_MODEL))
+def digit(digit_cfg, digit_model):
+    return robots.build(robots.get("digit"), digit_cfg.physics, str(digit_model))
 
 
 def test_digit_nominal_stands_flat_with_closed_chains(digit):

@@ -7,22 +7,22 @@ import json
 import numpy as np
 import pytest
 
-from conftest import DATA, DIGIT_MODEL
+from conftest import DATA, model_for
 from mjx_cascade import evaluate, judge, policies, robots, runtime, scenario, sim2sim
 
 pytestmark = pytest.mark.slow
 
 # Digit also starts backwards and to the right with a heading change, as the two profiles did in
 # which the policy shipped before `gait.first_swing: command` fell in its first second
-ROBOTS = {"cassie": (4184, None, ["walk_short"]),
-          "digit": (4316, DIGIT_MODEL, ["walk_short", "backward_right_start"])}
+ROBOTS = {"cassie": (4184, ["walk_short"]), "digit": (4316, ["walk_short", "backward_right_start"])}
 
 
 @pytest.fixture(scope="module", params=list(ROBOTS))
 def shipped_eval(request, tmp_path_factory):
     """`eval` of the robot's 10-s scenarios (two 5-s segments from standing) in one batched call."""
     robot = request.param
-    num_params, model, names = ROBOTS[robot]
+    num_params, names = ROBOTS[robot]
+    model = model_for(request, robot)
     out = tmp_path_factory.mktemp(robot)
     scenarios = [scenario.load(DATA / f"{n}.json") for n in names]
     metrics = evaluate.evaluate(robot, scenarios, out, model_path=model and str(model), dt=0.0005, video=False)

@@ -11,17 +11,17 @@ import pytest
 
 from mjx_cascade import config, policy, robots, rollout, world
 from mjx_cascade.env import make_env
-from conftest import DIGIT_MODEL
+from conftest import model_for
 
-MODELS = {"digit": DIGIT_MODEL}  # robots without a default model
 STEPS = 20
 
 
 @pytest.mark.parametrize("robot", list(config.ROBOTS))
-def test_every_robot_builds_resets_and_steps(robot):
+def test_every_robot_builds_resets_and_steps(robot, request):
     cfg = config.robot_config(robot).override(**{"episode.pool_size": 2})
     network = policy.for_controller(cfg, len(robots.get(robot).learned), jax.random.PRNGKey(0))
-    env = make_env(cfg, network.apply, model_path=str(MODELS[robot]) if robot in MODELS else None)
+    model = model_for(request, robot)
+    env = make_env(cfg, network.apply, model_path=model and str(model))
     sched = world.schedule([np.array([[0.0, 0.3, 0.1, 0.2]])], [[(0.005, 0.01, (30.0, 0.0, 0.0))]], env.dt, STEPS)
     record = lambda env, s, w: (s.data.qpos, s.data.qvel, s.ctrl.alpha)  # noqa: E731
     books, (qpos, qvel, alpha) = jax.jit(lambda p: rollout.simulate(
