@@ -1,4 +1,4 @@
-"""`mjx-cascade`: info, train, eval, robustness, revise, export, sim2sim and play from the command line.
+"""`mjx-cascade`: info, train, eval, robustness, benchmark, revise, export, sim2sim and play from the command line.
 
 The command line only parses and validates; every command calls the library functions that
 notebooks and tests call. Bad input ends with one line on stderr and exit status 2, before
@@ -43,7 +43,7 @@ def build_parser() -> Parser:
                epilog="Each command has its own --help with examples.")
     p.add_argument("--version", action="version", version=f"mjx-cascade {mjx_cascade.__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for add in (_add_info, _add_train, _add_eval, _add_robustness, _add_revise, _add_export, _add_sim2sim, _add_play):
+    for add in (_add_info, _add_train, _add_eval, _add_robustness, _add_benchmark, _add_revise, _add_export, _add_sim2sim, _add_play):
         add(sub)
     return p
 
@@ -90,6 +90,7 @@ def _add_train(sub) -> None:
                      "  mjx-cascade train --robot cassie --out runs/cassie\n"
                      "  mjx-cascade train --robot cassie --out runs/smoke --generations 2 --population 4 "
                      "--episode-seconds 0.5\n"
+                     "  mjx-cascade train --robot cassie --out runs/cassie --logger tensorboard --eval-every 20\n"
                      "  mjx-cascade train --robot digit --model PATH/digit-v3.xml --out runs/digit --set es.sigma=0.05\n")
     src = train.add_mutually_exclusive_group(required=True)
     src.add_argument("--config", metavar="FILE", help="YAML config: `robot` plus overrides of its settings")
@@ -111,6 +112,9 @@ def _add_train(sub) -> None:
     train.add_argument("--accept-changes", action="store_true",
                        help="resume a run whose config differs from its checkpoint's (the change is recorded)")
     train.add_argument("--no-progress", action="store_true", help="no progress bar (the default off a terminal)")
+    train.add_argument("--logger", action="append", default=[], metavar="KIND",
+                       help="also log every metrics row to tensorboard (DIR/tensorboard/) or wandb; repeatable "
+                            "or comma-separated (default: none)")
     train.set_defaults(func=cmd_train)
 
 
@@ -121,6 +125,8 @@ TRAIN_FLAGS = (
     ("--episode-seconds", "episode.seconds", float, "length of each training episode, s"),
     ("--seed", "seed", int, "seed of the run's every random draw"),
     ("--checkpoint-every", "train.checkpoint_every", int, "generations between checkpoints"),
+    ("--eval-every", "train.eval_every", int, "generations between checks of the ES mean on the robot's val "
+                                              "profiles, the best kept in DIR/best/ (0: none)"),
 )
 
 
@@ -163,6 +169,35 @@ def _add_robustness(sub) -> None:
     rob.add_argument("--trials", type=int, help="trials per cell (default 10)")
     rob.add_argument("--seconds", type=float, help="length of each trial, s (default 10)")
     rob.set_defaults(func=cmd_robustness)
+
+
+def _add_benchmark(sub) -> None:
+    bench = _command(sub, "benchmark", "the walking bar and command-step response times on a profile set, "
+                     "into one result file",
+                     "  mjx-cascade benchmark walking --robot cassie --profiles val --out results/cassie_val.json\n"
+                     "  mjx-cascade benchmark walking --robot cassie --profiles steps --out results/cassie_steps.json\n"
+                     "  mjx-cascade benchmark walking --checkpoint runs/cassie --scenario my.json --out r.json\n")
+    bench.add_argument("what", choices=("walking",), help="the benchmark (the robustness sweep is `robustness`)")
+    bench.add_argument("--robot", choices=ROBOT_CHOICES,
+                       help="the robot (default: the --checkpoint's; with neither, required)")
+    bench.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
+    bench.add_argument("--model", metavar="PATH", help=MODEL_HELP)
+    which = bench.add_mutually_exclusive_group(required=True)
+    which.add_argument("--profiles", choices=(*profiles_roles(), "steps"),
+                       help="a profile set by role (configs/sets.yaml: dev, val, test) or the command steps")
+    which.add_argument("--scenario", nargs="+", metavar="NAME|FILE", help="scenario files or shipped names")
+    bench.add_argument("--out", required=True, metavar="FILE", help="the result file (JSON)")
+    bench.add_argument("--dt", type=float, help=f"physics time step, s (default {config_lib.PAPER_DT}, the paper's)")
+    bench.add_argument("--simulator", choices=("mjx", "mujoco"), default="mjx",
+                       help="MJX in the evaluation's batches, or MuJoCo's C engine one profile at a time "
+                            "(default: mjx)")
+    bench.set_defaults(func=cmd_benchmark)
+
+
+def profiles_roles() -> tuple[str, ...]:
+    from mjx_cascade import profiles
+
+    return profiles.ROLES
 
 
 def _add_revise(sub) -> None:
@@ -283,9 +318,10 @@ def training_config(args: argparse.Namespace) -> config_lib.Config:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from mjx_cascade import _xla, physics, robots, train
+    from mjx_cascade import _xla, loggers, physics, robots, train
 
     cfg = training_config(args)
+    log_to = loggers.parse(args.logger)
     if args.cpu_devices is not None:  # before anything starts JAX
         try:
             devices = _xla.cpu_devices(args.cpu_devices)
@@ -302,7 +338,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     _xla.enable_compilation_cache()
     summary = train.train(cfg, out, model_path=str(model) if model else None,
                           progress=None if not args.no_progress else False, init=args.init,
-                          accept_changes=args.accept_changes)
+                          accept_changes=args.accept_changes, log_to=log_to)
     print(json.dumps(summary))
     return 0
 
@@ -365,12 +401,13 @@ def _source_robot(path: str) -> str:
 def cmd_eval(args: argparse.Namespace) -> int:
     if not args.no_video:
         _headless_gl()
-    from mjx_cascade import evaluate, scenario
+    from mjx_cascade import evaluate, progress, scenario
 
     scenarios = [scenario.load(f) for f in args.scenario]
     model, out, settings = _simulation_args(args)
     metrics = evaluate.evaluate(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
-                                dt=args.dt, impl=args.impl, video=not args.no_video, settings=settings)
+                                dt=args.dt, impl=args.impl, video=not args.no_video, settings=settings,
+                                progress=progress.Report("eval"))
     return _report(args, metrics, out)
 
 
@@ -384,7 +421,8 @@ def _report(args: argparse.Namespace, metrics: list[dict], out: Path) -> int:
         if m["fell"]:
             verdict += f", fell at {m['fall_time']:.2f} s"
         print(f"{args.robot} / {m['scenario']['name']}: {verdict}")
-    for note in dict.fromkeys(m["video"] for m in metrics if m.get("video", "video.gif") != "video.gif"):
+    for note in dict.fromkeys(m["video"] for m in metrics
+                              if m.get("video", "video.gif") not in ("video.mp4", "video.gif")):
         print(note)  # why there is no video, once
     if len(metrics) > 1:
         print(f"passed {sum(m['passed'] for m in metrics)} of {len(metrics)}")
@@ -395,13 +433,13 @@ def _report(args: argparse.Namespace, metrics: list[dict], out: Path) -> int:
 def cmd_sim2sim(args: argparse.Namespace) -> int:
     if not args.no_video:
         _headless_gl()
-    from mjx_cascade import scenario, sim2sim
+    from mjx_cascade import progress, scenario, sim2sim
 
     scenarios = [scenario.load(f) for f in args.scenario]
     model, out, settings = _simulation_args(args)
-    say = lambda line: print(f"sim2sim {line}", file=sys.stderr, flush=True)  # noqa: E731
     metrics = sim2sim.sim2sim(args.robot, scenarios, out, checkpoint_dir=args.checkpoint, model_path=model,
-                              dt=args.dt, video=not args.no_video, settings=settings, progress=say)
+                              dt=args.dt, video=not args.no_video, settings=settings,
+                              progress=progress.Report("sim2sim"))
     return _report(args, metrics, out)
 
 
@@ -430,19 +468,41 @@ def cmd_play(args: argparse.Namespace) -> int:
 def cmd_robustness(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from mjx_cascade import robustness
+    from mjx_cascade import progress, robustness
 
     given = {k: v for k, v in (("axes", args.axes and tuple(args.axes)), ("trials", args.trials),
                                ("seconds", args.seconds)) if v is not None}
     sweep = dataclasses.replace(robustness.Sweep(), **given)
     model, out, settings = _simulation_args(args)
     results, _ = robustness.sweep(args.robot, out, sweep, checkpoint_dir=args.checkpoint, model_path=model,
-                                  dt=args.dt, impl=args.impl, settings=settings)
+                                  dt=args.dt, impl=args.impl, settings=settings, progress=progress.Report("robustness"))
     if args.json:
         print(json.dumps({k: v for k, v in results.items() if k != "trials"}, indent=2))
     else:
         print(robustness.markdown(results))
         print(f"wrote {out} in {results['wall_clock_s']:.0f} s")
+    return 0
+
+
+def cmd_benchmark(args: argparse.Namespace) -> int:
+    from mjx_cascade import _xla, benchmark, profiles, scenario
+
+    model = _policy_args(args, {})
+    scenarios = profiles.resolve(args.robot, args.profiles) if args.profiles else \
+        [scenario.load(f) for f in args.scenario]
+    out = Path(args.out)
+    if out.is_dir():
+        raise ConfigError(f"--out {out} is a directory; give the result file's name")
+    _xla.enable_compilation_cache()
+    result = benchmark.walking(args.robot, scenarios, args.profiles or "scenarios", args.checkpoint, model,
+                               args.dt, args.simulator)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=1) + "\n")
+    r = result["response"]
+    print(f"{args.robot} / {result['set']}: passed {result['passed']} of {result['count']}, fell {result['fell']}; "
+          + ", ".join(f"{a} settles in {v['median_s']} s median, {v['worst_s']} s worst ({v['unsettled']} unsettled)"
+                      for a, v in r.items() if v["changes"]))
+    print(f"wrote {out}")
     return 0
 
 

@@ -12,7 +12,7 @@ import pytest
 
 from mjx_cascade import config, rewards
 
-from conftest import DATA, DIGIT_MODEL, ROOT
+from conftest import DATA, ROOT, model_for
 
 SMOKE = ["--population", "4", "--episode-seconds", "0.5", "--set", "episode.pool_size=4"]
 
@@ -37,11 +37,9 @@ def finished(proc, log):
                                        Path(f"{log}.err").read_text())
 
 
-@pytest.mark.parametrize("robot, expect, model", [
-    ("cassie", (4184, 24, 6), None),
-    ("digit", (4316, 28, 6), DIGIT_MODEL),
-])
-def test_info_reports_table_1(robot, expect, model):
+@pytest.mark.parametrize("robot, expect", [("cassie", (4184, 24, 6)), ("digit", (4316, 28, 6))])
+def test_info_reports_table_1(robot, expect, request):
+    model = model_for(request, robot)
     args = ["info", "--robot", robot, "--json"] + (["--model", model] if model else [])
     out = cli(*args)
     assert out.returncode == 0, out.stderr
@@ -50,10 +48,10 @@ def test_info_reports_table_1(robot, expect, model):
     assert info["robot"] == robot and info["dt"] == config.robot_config(robot).physics.dt and len(info["learned_joints"]) == expect[1] // 4
 
 
-def test_info_names_the_model_from_the_environment_and_none_when_a_required_one_is_missing():
-    given = cli("info", "--robot", "digit", "--json", env={"DIGIT_MODEL_PATH": str(DIGIT_MODEL)})
+def test_info_names_the_model_from_the_environment_and_none_when_a_required_one_is_missing(digit_model):
+    given = cli("info", "--robot", "digit", "--json", env={"DIGIT_MODEL_PATH": str(digit_model)})
     assert given.returncode == 0, given.stderr
-    assert json.loads(given.stdout)["model"] == str(DIGIT_MODEL)
+    assert json.loads(given.stdout)["model"] == str(digit_model)
     missing = {k: v for k, v in os.environ.items() if k != "DIGIT_MODEL_PATH"}
     none = subprocess.run([sys.executable, "-m", "mjx_cascade.cli", "info", "--robot", "digit", "--json"],
                           capture_output=True, text=True, timeout=600, env=missing, cwd=ROOT)
@@ -64,12 +62,13 @@ def test_info_names_the_model_from_the_environment_and_none_when_a_required_one_
 
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
-    """Two generations, then a rerun of the same command with --generations 3 (a resume)."""
+    """Two generations, then a rerun of the same command with --generations 3 (a resume); both log
+    to TensorBoard."""
     out = tmp_path_factory.mktemp("runs") / "smoke"
-    first = cli("train", "--robot", "cassie", "--out", out, "--generations", 2, *SMOKE)
+    first = cli("train", "--robot", "cassie", "--out", out, "--generations", 2, *SMOKE, "--logger", "tensorboard")
     assert first.returncode == 0, first.stderr[-3000:]
     lines_after_first = (out / "metrics.jsonl").read_text().splitlines()
-    second = cli("train", "--robot", "cassie", "--out", out, "--generations", 3, *SMOKE)
+    second = cli("train", "--robot", "cassie", "--out", out, "--generations", 3, *SMOKE, "--logger", "tensorboard")
     assert second.returncode == 0, second.stderr[-3000:]
     return out, lines_after_first, first, second
 
@@ -114,6 +113,22 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
     # every 10 generations by default, and always where a run stops
     assert sorted(p.name for p in (out / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "3"]
     assert (out / "learning_curve.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_tensorboard_reads_every_metrics_row_of_a_run_and_its_resume(smoke):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    out = smoke[0]
+    rows = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    board = EventAccumulator(str(out / "tensorboard"))
+    board.Reload()
+    assert {"fitness_mean", "sigma", "samples_per_s", *(f"reward/{term}" for term in rewards.TERMS)} <= \
+        set(board.Tags()["scalars"])
+    for tag in ("fitness_mean", "reward/vx"):
+        events = board.Scalars(tag)
+        assert [e.step for e in events] == [1, 2, 3]  # one per generation, the resume's included
+        np.testing.assert_allclose([e.value for e in events], [r[tag] for r in rows], rtol=1e-6)
 
 
 @pytest.mark.slow
@@ -193,6 +208,9 @@ def test_eval_writes_trajectory_metrics_and_plots(short_eval):
     assert json.loads(res.stdout)["policy"]["generation"] == 3
     assert metrics["policy"]["settings"] == {"regulators.k_phr": "0.3"}  # what --set changed, as given
     assert metrics["policy"]["revisions"] == []  # a run's checkpoint runs as it trained
+    progress = [line for line in res.stderr.splitlines() if line.startswith("eval: ")]
+    assert progress[0] == "eval: batch 1/1: 1 scenario on the plane (short)"
+    assert len(progress) == 11 and progress[-1] == "eval: 100% (0.3 of 0.3 s simulated)"  # a line per tenth
     for png in ("tracking.png", "limit_cycles.png"):
         assert (out / png).stat().st_size > 10_000
 
@@ -250,6 +268,8 @@ def bad_inputs(tmp_path):
         (train[:3] + ["--set", "es.learning_rate=-0.1", "--out"], "es.learning_rate"),
         (train[:3] + ["--set", "physics.dt=0", "--out"], "physics.dt"),
         (train[:3] + ["--episode-seconds", "0", "--out"], "episode.seconds"),
+        (train[:3] + ["--eval-every", "-1", "--out"], "train.eval_every"),
+        (train[:3] + ["--logger", "tensorboard,mlflow", "--out"], "unknown logger 'mlflow'"),
         (train[:3] + ["--cpu-devices", "0", "--out"], "--cpu-devices takes a positive count or auto"),
         (train[:3] + ["--cpu-devices", "3", "--population", "4", "--out"], "multiple of the 3 devices"),
         (["train", "--robot", "digit", "--cpu-devices", "2", "--out"], "at most 1 CPU device"),
@@ -359,13 +379,13 @@ def test_accept_changes_resumes_with_the_new_setting_and_records_it(after_smoke)
 
 
 @pytest.mark.slow
-def test_checkpoints_for_another_robot_or_policy_are_refused(smoke, tmp_path):
+def test_checkpoints_for_another_robot_or_policy_are_refused(smoke, tmp_path, digit_model):
     out = smoke[0]
     before = sorted(p.name for p in (out / "checkpoints").iterdir())
     res = cli("train", "--robot", "cassie", "--out", out, "--generations", 4, *SMOKE, "--set", "policy.hidden_units=16")
     assert res.returncode == 2 and "parameters" in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert sorted(p.name for p in (out / "checkpoints").iterdir()) == before
-    res = cli("eval", "--robot", "digit", "--model", DIGIT_MODEL, "--checkpoint", out,
+    res = cli("eval", "--robot", "digit", "--model", digit_model, "--checkpoint", out,
               "--scenario", DATA / "short.json", "--out", tmp_path / "e")
     assert res.returncode == 2 and "for robot 'cassie'" in res.stderr and not (tmp_path / "e").exists()
 
@@ -393,7 +413,7 @@ def test_version_and_help_for_every_option_with_examples_per_command():
     assert res.returncode == 0 and res.stdout.strip() == f"mjx-cascade {__import__('mjx_cascade').__version__}"
     parser = cli_lib.build_parser()
     commands = next(a for a in parser._actions if a.dest == "command").choices
-    assert set(commands) == {"info", "train", "eval", "robustness", "revise", "export", "sim2sim", "play"}
+    assert set(commands) == {"info", "train", "eval", "robustness", "benchmark", "revise", "export", "sim2sim", "play"}
     for name, sub in commands.items():
         assert "examples:" in sub.epilog and f"mjx-cascade {name}" in sub.epilog, name
         for action in sub._actions:
@@ -411,7 +431,7 @@ def test_a_shipped_scenario_is_named_from_any_directory(tmp_path, monkeypatch):
         scenario.load("speed_profil")
 
 
-def test_eval_takes_the_robot_from_the_checkpoint_and_runs_at_the_papers_step(tmp_path):
+def test_eval_takes_the_robot_from_the_checkpoint_and_runs_at_the_papers_step(tmp_path, digit_model):
     import argparse
 
     from mjx_cascade import cli as cli_lib, policies
@@ -422,7 +442,7 @@ def test_eval_takes_the_robot_from_the_checkpoint_and_runs_at_the_papers_step(tm
         cli_lib._simulation_args(args)
         return args
 
-    args = resolved(checkpoint=str(policies.shipped("digit")), model=DIGIT_MODEL)
+    args = resolved(checkpoint=str(policies.shipped("digit")), model=digit_model)
     assert args.robot == "digit" and args.dt == config.PAPER_DT == 0.0005
     assert resolved(robot="cassie", set=["physics.dt=0.002"]).dt is None  # --set decides it
     assert resolved(robot="cassie", dt=0.001).dt == 0.001
