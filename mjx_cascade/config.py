@@ -122,10 +122,8 @@ class RegulatorConfig:
     k_i_drift_y: float  # beta_y
     drift_limit: float  # |beta| bound, rad
     height: float  # desired pelvis height q_z^d, m: the height regulation's target and Table 4's
-    k_height: float  # stance knee extension per m of pelvis below `height` (regulators.height_fix); 0: none
-    # the height over the ground under the pelvis, extrapolated from the stance foot along the
-    # slope estimate (regulators.ground_rise), instead of over the stance foot
-    height_over_slope: bool
+    k_height: float  # stance knee extension per m of pelvis below `height` over the ground under it
+                     # (regulators.height_fix, regulators.ground_rise); 0: none
     # how fast the followed command moves towards the given one (regulators.rate_limit):
     # [m/s^2 for vx and vy, rad/s for the heading]; 0 follows at once
     command_rate: tuple[float, float]
@@ -440,7 +438,7 @@ _V1_DEFAULTS = {
     "episode": {"command_change": [0.0, 0.0]},
     "gait": {"first_swing": "random"},
     "policy": {"mirror_lateral": False},
-    "regulators": {"k_height": 0.0, "k_i_drift_y": 0.05, "command_rate": [0.0, 0.0], "height_over_slope": False},
+    "regulators": {"k_height": 0.0, "k_i_drift_y": 0.05, "command_rate": [0.0, 0.0]},
     "rewards": {"velocity_steps": 1},
     "randomization": {"push_force": [0.0, 0.0], "push_seconds": 0.2, "push_after": [1.0, 3.0],
                       "push_warmup_generations": 0},
@@ -457,7 +455,9 @@ def migrate(data: dict) -> dict:
     Version 1 (no `version` key) left out the settings added after a run was saved, meaning the
     behaviour before them (`_V1_DEFAULTS`); it held the desired pelvis height in `rewards.height`
     and had `regulators.slope_estimation`, which was always on. Versions 1 and 2 have no
-    validation checks during training (`_V2_DEFAULTS`).
+    validation checks during training (`_V2_DEFAULTS`), and may hold `regulators.height_over_slope`:
+    the height regulation now always measures over the ground under the pelvis, so a config that
+    measured over the stance foot with the regulation on is no longer supported.
     """
     need(isinstance(data, dict), "a saved config must be a mapping")
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
@@ -472,6 +472,9 @@ def migrate(data: dict) -> dict:
     if version < 3:
         for section, defaults in _V2_DEFAULTS.items():
             data[section] = {**defaults, **data.get(section, {})}
+        over_slope = data["regulators"].pop("height_over_slope", False)
+        need(over_slope or data["regulators"].get("k_height", 0.0) == 0.0,
+             "a saved config with regulators.height_over_slope false and k_height > 0 is no longer supported")
     return data
 
 

@@ -200,8 +200,9 @@ class Controller:
     def terrain_regulation(self, ref: Array, c: ControllerState, obs: Obs) -> tuple[ControllerState, Array]:
         """Sec. IV-A: the stance foot is taken to lie on the ground, so a low-pass of its (pitch, roll)
         estimates the slope; the stance knee extends for a pelvis below `regulators.height`
-        (`regulators.height_fix`, not in the paper), measured through the stance leg: a robot does
-        not know the terrain under its pelvis."""
+        (`regulators.height_fix`, not in the paper). The height is measured through the stance leg
+        and taken over the estimated ground plane under the pelvis, not over the foot: downhill, a
+        stance foot ahead of the pelvis would read as a pelvis too high, one behind it as too low."""
         r, reg = self.robot, self.cfg.regulators
         a = self.dt / (GROUND_FILTER + self.dt)
         ground = c.ground + a * (obs.foot_angles[c.stance] - c.ground)
@@ -209,10 +210,8 @@ class Controller:
         if reg.k_height == 0:  # the stance knee is the policy's alone
             return c, ref
         leg_height = obs.pos[2] - obs.feet[c.stance, 2] + self.foot_rest
-        if reg.height_over_slope:  # over the estimated ground under the pelvis, not over the foot:
-            # downhill, a stance foot ahead of the pelvis reads as a pelvis too high, one behind as too low
-            offset = features.to_heading_frame(obs.pos[:2] - obs.feet[c.stance, :2], obs.rpy[2])
-            leg_height = leg_height - regulators.ground_rise(ground * r.slope_sensed, offset)
+        offset = features.to_heading_frame(obs.pos[:2] - obs.feet[c.stance, :2], obs.rpy[2])
+        leg_height = leg_height - regulators.ground_rise(ground * r.slope_sensed, offset)
         lift = regulators.height_fix(leg_height, reg.height, reg)
         return c, ref.at[gait.STANCE, r.knee].add(jnp.asarray(r.knee_extension)[c.stance] * lift)
 

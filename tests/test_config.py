@@ -92,11 +92,12 @@ def test_a_saved_config_round_trips_and_must_be_complete():
 
 
 def _version_1(cfg: config.Config) -> dict:
-    """`cfg` as version 1 saved it: no version, the desired height under rewards, slope estimation."""
+    """`cfg` as version 1 saved it: no version, the desired height under rewards, slope estimation,
+    the height over the slope as a setting."""
     data = config.to_dict(cfg)
     del data["version"]
     data["rewards"]["height"] = data["regulators"].pop("height")
-    data["regulators"]["slope_estimation"] = True
+    data["regulators"].update(slope_estimation=True, height_over_slope=True)
     return data
 
 
@@ -107,7 +108,7 @@ def test_migration_reads_a_version_1_config_as_it_meant():
     for section, keys in {"randomization": ("push_force", "push_seconds", "push_after", "push_warmup_generations"),
                           "episode": ("command_change",), "gait": ("first_swing",), "policy": ("mirror_lateral",),
                           "rewards": ("velocity_steps",),
-                          "regulators": ("k_height", "k_i_drift_y", "command_rate", "height_over_slope")}.items():
+                          "regulators": ("k_height", "k_i_drift_y", "command_rate")}.items():
         for key in keys:
             del old[section][key]
     meant = config.from_dict(old)  # saved before those settings existed: what the code then did
@@ -115,7 +116,7 @@ def test_migration_reads_a_version_1_config_as_it_meant():
     assert meant.randomization.push_force == (0.0, 0.0) and meant.episode.command_change == (0.0, 0.0)
     assert meant.regulators.k_i_drift_y == 0.05 and meant.regulators.k_height == 0.0
     assert meant.rewards.velocity_steps == 1 and not meant.policy.mirror_lateral
-    assert not meant.regulators.height_over_slope and meant.regulators.height == 0.91
+    assert meant.regulators.height == 0.91
     off = _version_1(cfg)
     off["regulators"]["slope_estimation"] = False
     with pytest.raises(ConfigError, match="slope_estimation"):
@@ -126,14 +127,28 @@ def test_migration_reads_a_version_2_config_as_one_without_validation_checks():
     cfg = config.robot_config("cassie").override(**{"train.eval_every": 5})
     old = {**config.to_dict(cfg), "version": 2}
     del old["train"]["eval_every"]
+    # the height regulation measures over the ground under the pelvis: saved as a setting until version 3
+    old["regulators"]["height_over_slope"] = True
     assert config.from_dict(old) == cfg.override(**{"train.eval_every": 0})
+    over_foot = {**old, "regulators": {**old["regulators"], "height_over_slope": False}}
+    with pytest.raises(ConfigError, match="height_over_slope"):
+        config.from_dict(over_foot)
+    unregulated = {**old, "regulators": {**over_foot["regulators"], "k_height": 0.0}}
+    assert config.from_dict(unregulated).regulators.k_height == 0.0  # nothing measured: nothing changes
 
 
 def test_the_shipped_policies_records_load_through_the_migration():
     for robot in config.ROBOTS:
         record = json.loads((ROOT / "mjx_cascade" / "policies" / robot / "record.json").read_text())
-        assert "version" not in record["config"]  # saved by version 1
         assert config.from_dict(record["config"]).robot == robot
+
+
+def test_the_shipped_cassie_policy_trained_with_exactly_the_robots_config():
+    """`mjx-cascade train --robot cassie` trains what ships: nothing was changed after training."""
+    policy_dir = ROOT / "mjx_cascade" / "policies" / "cassie"
+    record = json.loads((policy_dir / "record.json").read_text())
+    assert config.from_dict(record["config"]) == config.robot_config("cassie")
+    assert not (policy_dir / "revisions.json").exists()
 
 
 def test_differences_name_the_changed_keys_in_order():

@@ -144,7 +144,7 @@ def test_torso_torques_take_over_the_stance_hips_as_the_foot_loads(standing):
 @pytest.fixture(scope="module")
 def height_env(cassie, cassie_pool, standing, cassie_network):
     """The controller with `k_height` 2, measuring the height over the sloped ground."""
-    return Env(cassie, standing[0].cfg.override(**{"regulators.k_height": 2.0, "regulators.height_over_slope": True}),
+    return Env(cassie, standing[0].cfg.override(**{"regulators.k_height": 2.0}),
                cassie_pool, cassie_network.apply)
 
 
