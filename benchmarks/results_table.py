@@ -23,7 +23,7 @@ RESULTS = ROOT / "benchmarks" / "results"
 
 # result file (under RESULTS) -> the role its profiles have played; the set's name comes from the file
 FILES = {
-    "walking/cassie_val.json": "chose the checkpoint",
+    "walking/cassie_val_g320.json": "chose the checkpoint (of generations 300, 310, 320)",
     "walking/cassie_test.json": "drawn after the policy was frozen; run once",
     "walking/cassie_steps.json": "command steps across the full ranges",
     "walking_cpu/digit_profiles.json": "chose the checkpoint and `command_rate`",

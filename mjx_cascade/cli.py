@@ -500,8 +500,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     out.write_text(json.dumps(result, indent=1) + "\n")
     r = result["response"]
     print(f"{args.robot} / {result['set']}: passed {result['passed']} of {result['count']}, fell {result['fell']}; "
-          + ", ".join(f"{a} settles in {v['median_s']} s median, {v['worst_s']} s worst ({v['unsettled']} unsettled)"
-                      for a, v in r.items() if v["changes"]))
+          + ", ".join(f"{a} settles in {v['median_s']:.2f} s median, {v['worst_s']:.2f} s worst ({v['unsettled']} unsettled)"
+                      for a, v in r.items() if v["median_s"] is not None))
     print(f"wrote {out}")
     return 0
 
