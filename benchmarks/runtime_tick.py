@@ -18,7 +18,6 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -26,14 +25,6 @@ from pathlib import Path
 import numpy as np
 
 import mjx_cascade  # noqa: F401  (sets the XLA CPU flag before JAX starts)
-
-
-def cpu_name() -> str:
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-        return next(line.split(":", 1)[1].strip() for line in lines if line.startswith("model name"))
-    except (OSError, StopIteration):
-        return platform.processor() or platform.machine()
 
 
 def stats(ns: np.ndarray) -> dict:
@@ -76,9 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     cores = sorted(os.sched_getaffinity(0))[:args.cores]
     os.sched_setaffinity(0, cores)  # before JAX's CPU backend starts its threads
 
-    from walking import code_version
-
     from mjx_cascade import config, evaluate, robots, runtime
+    from mjx_cascade.benchmark import code_version
+    from mjx_cascade.train import cpu_model
 
     version = code_version()  # the code this process runs: imported at its start
     cfg, found = evaluate.load_policy(args.robot, None, config.PAPER_DT)
@@ -86,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     rt = runtime.Runtime(robots.build(robots.get(args.robot), cfg.physics, str(model) if model else None), cfg,
                          found.params)
     result = {"robot": args.robot, "date": datetime.date.today().isoformat(), "code_version": version,
-              "cpu": cpu_name(), "cores": len(cores), **measure(rt, args.seconds)}
+              "cpu": cpu_model(), "cores": len(cores), **measure(rt, args.seconds)}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
     c = result["control_us"]
@@ -95,5 +86,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(Path(__file__).parent))
     sys.exit(main())
