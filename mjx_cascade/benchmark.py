@@ -27,6 +27,7 @@ import numpy as np
 
 from mjx_cascade import evaluate, judge, physics, sim2sim
 from mjx_cascade.config import Config
+from mjx_cascade.progress import Batches
 from mjx_cascade.scenario import Scenario
 
 CHECKOUT = Path(__file__).resolve().parents[1]
@@ -46,14 +47,17 @@ def code_version() -> str:
 
 
 def trajectories(cfg: Config, params: np.ndarray, scenarios: Sequence[Scenario], model_path: str | None,
-                 simulator: str) -> Iterator[tuple[Scenario, dict]]:
-    """`(scenario, trajectory)` pairs from MJX in the evaluation's batches, or from MuJoCo C."""
+                 simulator: str, progress: Batches | None = None) -> Iterator[tuple[Scenario, dict]]:
+    """`(scenario, trajectory)` pairs from MJX in the evaluation's batches, or from MuJoCo C;
+    `progress` hears of each batch (each scenario in MuJoCo C) and its simulated seconds."""
     if simulator == "mujoco":
-        for s, traj, _ in sim2sim.trajectories(cfg, params, scenarios, model_path):
+        for s, traj, _ in sim2sim.trajectories(cfg, params, scenarios, model_path, progress):
             yield s, traj
         return
-    for runner in evaluate.runners(cfg, scenarios, model_path):
-        yield from zip(runner.scenarios, runner(params))
+    batches = evaluate.runners(cfg, scenarios, model_path)
+    for i, runner in enumerate(batches):
+        title = f"batch {i + 1}/{len(batches)}: {evaluate.describe(runner.scenarios)}"
+        yield from zip(runner.scenarios, runner(params, progress(title, runner.seconds) if progress else None))
 
 
 def changes(segments: list[dict], bar: judge.WalkingBar = judge.WALKING) -> list[dict]:
@@ -81,13 +85,15 @@ def response(rows: list[dict]) -> dict:
 
 
 def walking(robot: str, scenarios: Sequence[Scenario], set_name: str, checkpoint: str | None = None,
-            model_path: str | None = None, dt: float | None = None, simulator: str = "mjx") -> dict:
-    """Judge the policy (the shipped one unless `checkpoint`) on `scenarios`, the set `set_name`."""
+            model_path: str | None = None, dt: float | None = None, simulator: str = "mjx",
+            progress: Batches | None = None) -> dict:
+    """Judge the policy (the shipped one unless `checkpoint`) on `scenarios`, the set `set_name`;
+    `progress` hears of each batch as it runs."""
     version = code_version()  # the code this process runs: imported at its start
     cfg, found = evaluate.load_policy(robot, checkpoint, dt)
     start = time.perf_counter()
     rows = {}
-    for s, traj in trajectories(cfg, found.params, scenarios, model_path, simulator):
+    for s, traj in trajectories(cfg, found.params, scenarios, model_path, simulator, progress):
         m = judge.walking(traj)
         rows[s.name] = {**evaluate.verdict({"scenario": {"name": s.name}, **m}), "changes": changes(m["segments"])}
     rows = [rows[s.name] for s in scenarios]

@@ -485,7 +485,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from mjx_cascade import _xla, benchmark, profiles, scenario
+    from mjx_cascade import _xla, benchmark, profiles, progress, scenario
 
     model = _policy_args(args, {})
     scenarios = profiles.resolve(args.robot, args.profiles) if args.profiles else \
@@ -495,7 +495,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         raise ConfigError(f"--out {out} is a directory; give the result file's name")
     _xla.enable_compilation_cache()
     result = benchmark.walking(args.robot, scenarios, args.profiles or "scenarios", args.checkpoint, model,
-                               args.dt, args.simulator)
+                               args.dt, args.simulator, progress.Report("benchmark"))
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=1) + "\n")
     r = result["response"]

@@ -58,7 +58,7 @@ def test_time_to_walk_checks_twelve_flat_profiles_by_default():
     assert all(s.terrain == {"type": "flat"} and s.duration >= 12.0 for s in scenarios)  # one batch
 
 
-def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tmp_path):
+def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tmp_path, capsys):
     """The shipped-policy test's walk (its program is in the compilation cache), through the command line."""
     out = tmp_path / "walking.json"
     assert cli.main(["benchmark", "walking", "--robot", "cassie", "--scenario", str(DATA / "walk_short.json"),
@@ -73,3 +73,6 @@ def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tm
     assert result["policy"]["params_sha256"] == checkpoint.params_sha256(shipped.params)
     assert result["policy"]["revisions"] == [r["settings"] for r in shipped.revisions]
     assert result["response"] == benchmark.response(result["scenarios"])
+    said = capsys.readouterr().err  # progress, as eval's: the batch, then each tenth simulated
+    assert "benchmark: batch 1/1: 1 scenario on the plane (walk_short)" in said
+    assert said.count("benchmark: ") == 11 and "100% (10 of 10 s simulated)" in said
