@@ -305,11 +305,7 @@ def train(cfg: Config, out: str | Path, model_path: str | None = None, progress:
     state, totals = _start(trainer, mngr, changes, init, log, out)
     write_config(cfg, out / CONFIG)
     _truncate_metrics(out / METRICS, int(state.generation))
-    t0 = time.perf_counter()
-    trainer.run = trainer.run.lower(state, jnp.int32(cfg.train.generations_per_call)).compile()
-    compile_s = time.perf_counter() - t0
-    log(f"compiled one call of {cfg.train.generations_per_call} generations in {compile_s:.1f} s "
-        f"({trainer.env.impl}, {trainer.devices} {jax.default_backend()} device(s), population {cfg.es.population})")
+    compile_s = _compile(trainer, state, log)
     sinks = loggers.make(log_to, out, to_dict(cfg))
     try:
         state = _train_loop(trainer, state, totals, mngr, out, progress, log, sinks, checks)
@@ -318,13 +314,23 @@ def train(cfg: Config, out: str | Path, model_path: str | None = None, progress:
             sink.close()
         _learning_curve(cfg, out)
     if mngr.latest_step() != int(state.generation):  # nothing was due (already trained that far): still leave one
-        checkpoint.save(mngr, int(state.generation), state, metadata(trainer, int(state.generation),
-                                                                      totals.physics_steps, totals.wall_clock,
-                                                                      totals.history))
+        generation = int(state.generation)
+        checkpoint.save(mngr, generation, state, metadata(trainer, generation, totals.physics_steps,
+                                                          totals.wall_clock, totals.history))
     return {"generation": int(state.generation), "physics_steps": totals.physics_steps,
             "wall_clock_s": totals.wall_clock, "compile_s": compile_s,
             "params_sha256": checkpoint.params_sha256(state.mean), "devices": trainer.devices,
             "impl": trainer.env.impl}
+
+
+def _compile(trainer: Trainer, state: es.ESState, log: Callable[[str], None]) -> float:
+    """Compile the training call once, before any generation runs; its seconds."""
+    cfg, t0 = trainer.cfg, time.perf_counter()
+    trainer.run = trainer.run.lower(state, jnp.int32(cfg.train.generations_per_call)).compile()
+    compile_s = time.perf_counter() - t0
+    log(f"compiled one call of {cfg.train.generations_per_call} generations in {compile_s:.1f} s "
+        f"({trainer.env.impl}, {trainer.devices} {jax.default_backend()} device(s), population {cfg.es.population})")
+    return compile_s
 
 
 def write_config(cfg: Config, path: Path) -> None:
@@ -361,33 +367,17 @@ def _train_loop(trainer: Trainer, state: es.ESState, totals: _Run, mngr: Any, ou
                 progress: bool | None, log: Callable[[str], None], sinks: list[loggers.Logger],
                 checks: _Validation | None) -> es.ESState:
     cfg = trainer.cfg
-    bar = _progress(progress, cfg.train.generations, int(state.generation))
-    lines = progress is None and bar is None  # off a terminal: one plain line per call
+    report = _Report(cfg.train.generations, int(state.generation), progress, log)
     start, wall0 = time.perf_counter(), totals.wall_clock
-    postfix = {}  # the bar's: the latest fitness, and the latest check's verdict
 
     with (out / METRICS).open("a") as f:
         def on_call(state, rows, seconds):
-            steps = sum(r["physics_steps"] for r in rows)
             generation, last = rows[-1]["generation"], rows[-1]
-            params = results = None
-            if checks and generation % cfg.train.eval_every == 0:
-                t_check = time.perf_counter()
-                params = np.asarray(jax.device_get(state.mean))
-                results = evaluate.check(checks.runners, params)
-                last.update(validation_row(results), **{"val/seconds": time.perf_counter() - t_check})
-            for row in rows:
-                totals.physics_steps += row["physics_steps"]
-                row.update(physics_steps_total=totals.physics_steps, wall_clock_s=wall0 + time.perf_counter() - start,
-                           samples_per_s=steps / seconds)
-                f.write(json.dumps(row) + "\n")
-            f.flush()
-            for sink in sinks:
-                for row in rows:
-                    sink.log(row, row["generation"])
+            params, results = _check(checks, cfg, state, last)
             totals.wall_clock = wall0 + time.perf_counter() - start
-            due = generation % cfg.train.checkpoint_every == 0 or generation == cfg.train.generations
+            _log_rows(f, sinks, rows, totals, seconds)
             best = results is not None and (checks.best is None or validation_score(last) > checks.best)
+            due = generation % cfg.train.checkpoint_every == 0 or generation == cfg.train.generations
             if due or best:
                 meta = metadata(trainer, generation, totals.physics_steps, totals.wall_clock, totals.history)
             if best:
@@ -396,23 +386,68 @@ def _train_loop(trainer: Trainer, state: es.ESState, totals: _Run, mngr: Any, ou
             if due:
                 checkpoint.save(mngr, generation, state, meta)
                 _learning_curve(cfg, out)
-            val = "" if results is None else f"val passed {last['val/passed']}/{last['val/count']}"
-            if lines:
-                log(f"generation {generation}/{cfg.train.generations}: fitness {last['fitness_mean']:.3f}, "
-                    f"{seconds:.1f} s, {steps / seconds:,.0f} samples/s"
-                    + (f", {val} in {last['val/seconds']:.1f} s{' (best so far)' if best else ''}" if val else ""))
-            if bar:
-                postfix.update(fitness=f"{last['fitness_mean']:.3f}",
-                               **({"val": f"{last['val/passed']}/{last['val/count']}"} if val else {}))
-                bar.update(len(rows))
-                bar.set_postfix(postfix)
+            report(rows, seconds, best)
 
         # every call ends where a checkpoint or a check is due
         every = math.gcd(cfg.train.checkpoint_every, cfg.train.eval_every)
         state = drive(trainer, state, cfg.train.generations, every, on_call)
-    if bar:
-        bar.close()
+    report.close()
     return state
+
+
+def _check(checks: _Validation | None, cfg: Config, state: es.ESState, last: dict
+           ) -> tuple[np.ndarray | None, dict | None]:
+    """Where a check is due, run the ES mean through the validation profiles and add the figures to
+    the call's last metrics row; the parameters checked and the verdicts, or Nones."""
+    if not checks or last["generation"] % cfg.train.eval_every:
+        return None, None
+    t_check = time.perf_counter()
+    params = np.asarray(jax.device_get(state.mean))
+    results = evaluate.check(checks.runners, params)
+    last.update(validation_row(results), **{"val/seconds": time.perf_counter() - t_check})
+    return params, results
+
+
+def _log_rows(f: Any, sinks: list[loggers.Logger], rows: list[dict], totals: _Run, seconds: float) -> None:
+    """One call's metrics rows, with the run's totals so far, to `metrics.jsonl` and every logger."""
+    steps = sum(r["physics_steps"] for r in rows)
+    for row in rows:
+        totals.physics_steps += row["physics_steps"]
+        row.update(physics_steps_total=totals.physics_steps, wall_clock_s=totals.wall_clock,
+                   samples_per_s=steps / seconds)
+        f.write(json.dumps(row) + "\n")
+    f.flush()
+    for sink in sinks:
+        for row in rows:
+            sink.log(row, row["generation"])
+
+
+class _Report:
+    """Progress: a bar on a terminal, one plain line per call off it (or nothing when turned off)."""
+
+    def __init__(self, total: int, initial: int, progress: bool | None, log: Callable[[str], None]):
+        self.total, self.log = total, log
+        self.bar = _progress(progress, total, initial)
+        self.lines = progress is None and self.bar is None
+        self.postfix = {}  # the bar's: the latest fitness, and the latest check's verdict
+
+    def __call__(self, rows: list[dict], seconds: float, best: bool) -> None:
+        last = rows[-1]
+        steps = sum(r["physics_steps"] for r in rows)
+        val = f"val passed {last['val/passed']}/{last['val/count']}" if "val/passed" in last else ""
+        if self.lines:
+            self.log(f"generation {last['generation']}/{self.total}: fitness {last['fitness_mean']:.3f}, "
+                     f"{seconds:.1f} s, {steps / seconds:,.0f} samples/s"
+                     + (f", {val} in {last['val/seconds']:.1f} s{' (best so far)' if best else ''}" if val else ""))
+        if self.bar:
+            self.postfix.update(fitness=f"{last['fitness_mean']:.3f}",
+                                **({"val": f"{last['val/passed']}/{last['val/count']}"} if val else {}))
+            self.bar.update(len(rows))
+            self.bar.set_postfix(self.postfix)
+
+    def close(self) -> None:
+        if self.bar:
+            self.bar.close()
 
 
 @dataclasses.dataclass
