@@ -12,7 +12,7 @@ import pytest
 
 from mjx_cascade import config, rewards
 
-from conftest import DATA, ROOT, model_for
+from conftest import DATA, ROOT, benchmark_script, model_for
 
 SMOKE = ["--population", "4", "--episode-seconds", "0.5", "--set", "episode.pool_size=4"]
 
@@ -87,6 +87,8 @@ def after_smoke(smoke, tmp_path_factory):
     runs = {"short": [*ev, "--scenario", DATA / "short.json", "--set", "regulators.k_phr=0.3"],  # the config's own value
             "both": [*ev, "--scenario", DATA / "short.json", DATA / "other.json", "--no-video"],
             "warm": ["train", "--robot", "cassie", "--init", exported, "--generations", 4, *SMOKE],
+            # the smoke run's command again, in one go: the same parameters bit for bit
+            "again": ["train", "--robot", "cassie", "--generations", 3, *SMOKE],
             # a changed reward setting, accepted: the run goes on with it and records the change
             "changed": ["train", "--robot", "cassie", "--generations", 4, *SMOKE, "--set",
                         "rewards.termination_penalty=10", "--accept-changes"]}
@@ -182,6 +184,29 @@ def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_genera
     code, err = _main(["train", "--robot", "cassie", "--out", tmp_path / "none", "--init", exported,
                        "--generations", 3, *SMOKE], capsys)
     assert code == 2 and "nothing to train" in err and not (tmp_path / "none").exists()
+
+
+@pytest.mark.slow
+def test_a_second_run_of_the_same_command_reproduces_the_exported_policy_bit_for_bit(after_smoke, tmp_path):
+    """What `benchmarks/reproduce.py` checks for the shipped policies, on the smoke run: every metrics
+    row but the timing, and the final parameters, though the smoke run stopped and resumed."""
+    (out, proc), exported = after_smoke["again"], after_smoke["exported"]
+    res = finished(proc, out)
+    assert res.returncode == 0, res.stderr[-3000:]
+    reproduce = benchmark_script("reproduce")
+    same = reproduce.compare(out, exported)
+    assert same["identical"] and same["generations_compared"] == 3 and same["params"]["equal"], same
+    # one changed bit in a logged figure is found, and named
+    rows = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    rows[1]["fitness_mean"] = float(np.nextafter(np.float32(rows[1]["fitness_mean"]), np.float32(np.inf)))
+    changed = tmp_path / "changed"
+    shutil.copytree(out, changed)
+    (changed / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    differs = reproduce.compare(changed, exported)
+    assert not differs["identical"] and differs["first_difference"]["generation"] == 2
+    assert differs["first_difference"]["field"] == "fitness_mean"
+    assert reproduce.main([str(changed), "--policy", str(exported), "--out", str(tmp_path / "r.json")]) == 1
+    assert json.loads((tmp_path / "r.json").read_text())["first_difference"]["generation"] == 2
 
 
 @pytest.fixture(scope="module")

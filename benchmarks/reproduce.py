@@ -1,0 +1,80 @@
+"""Does a new training run reproduce a shipped policy's run, generation by generation?
+
+    mjx-cascade train --robot cassie --cpu-devices 2 --generations 20 --out runs/repro
+    python benchmarks/reproduce.py runs/repro --policy mjx_cascade/policies/cassie --out FILE.json
+
+Compares every generation the new run logged (its `metrics.jsonl`) with the shipped policy's log,
+field by field and exactly: fitness, physics steps, sigma, learning rate, episode books. Only the
+timing fields (`TIMING`) may differ. Where the run reached the shipped generation, the parameters'
+sha256 must match the record's too. Training is reproducible bit for bit on the same devices and
+backend (the record's `reproducibility`), so one differing bit in any generation is a failure.
+Writes
+
+    {"run", "policy", "generations_compared", "identical", "first_difference", "params", "devices",
+     "shipped_devices", "code_version", "date"}
+
+and exits 1 unless every compared generation is identical.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import sys
+from pathlib import Path
+
+from mjx_cascade import benchmark, checkpoint
+
+TIMING = ("wall_clock_s", "samples_per_s")  # the only fields a rerun may change
+
+
+def _rows(path: Path) -> dict[int, dict]:
+    rows = (json.loads(line) for line in path.read_text().splitlines() if line.strip())
+    return {row["generation"]: {k: v for k, v in row.items() if k not in TIMING} for row in rows}
+
+
+def compare(run: Path, policy: Path) -> dict:
+    """The generations the run logged, compared with the policy's log, and the parameters' hash where
+    the run reached the policy's generation."""
+    new, shipped = _rows(run / "metrics.jsonl"), _rows(policy / "metrics.jsonl")
+    record = json.loads((policy / "record.json").read_text())
+    first = None
+    for generation in sorted(new):
+        if generation not in shipped:
+            first = {"generation": generation, "field": None, "why": "not in the shipped log"}
+            break
+        diff = sorted(k for k in new[generation].keys() | shipped[generation].keys()
+                      if new[generation].get(k) != shipped[generation].get(k))
+        if diff:
+            first = {"generation": generation, "field": diff[0], "run": new[generation].get(diff[0]),
+                     "shipped": shipped[generation].get(diff[0])}
+            break
+    result = {"run": str(run), "policy": str(policy), "generations_compared": len(new),
+              "identical": first is None and bool(new), "first_difference": first,
+              "shipped_devices": record.get("devices"), "params": None}
+    if record["generation"] in new:
+        sha = checkpoint.params_sha256(checkpoint.read(run)[1])
+        result["params"] = {"run": sha, "shipped": record["params_sha256"], "equal": sha == record["params_sha256"]}
+        result["identical"] = result["identical"] and result["params"]["equal"]
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run", type=Path, help="the new run's --out")
+    parser.add_argument("--policy", type=Path, required=True, help="the shipped policy directory")
+    parser.add_argument("--out", type=Path, help="where to write the result (JSON)")
+    args = parser.parse_args(argv)
+    result = compare(args.run, args.policy)
+    result.update(code_version=benchmark.code_version(), date=datetime.date.today().isoformat())
+    text = json.dumps(result, indent=1)
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text + "\n")
+    print(text)
+    return 0 if result["identical"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
