@@ -8,7 +8,9 @@ how long the 1-s average velocity took to settle after command changes (median a
 vy), the date and code version, and the passes and falls of the same profiles in MuJoCo's C engine
 (the file `<name>_mujoco.json`, `--simulator mujoco`) where that file exists. Every file must
 judge the policy that ships now: a file of another policy is refused, so the table cannot show a
-stale figure. `tests/test_readme.py` checks that the README holds exactly this table.
+stale figure. Then one row per robot in `ROBUSTNESS` (written by `mjx-cascade robustness`): the
+successes of the pushes at 100 and 150 N in each direction and the worst cell of each other axis.
+`tests/test_readme.py` checks that the README holds exactly these tables.
 """
 
 from __future__ import annotations
@@ -30,6 +32,12 @@ FILES = {
 }
 # sets judged before the profile sets by role existed (the shipped Digit policy's)
 LEGACY = {"walking_cpu/digit_profiles.json": "digit_rand01-50, digit_screen01-10"}
+# robot -> its shipped policy's robustness sweep (under RESULTS)
+ROBUSTNESS = {"cassie": "robustness_cpu_v1/robustness.json"}
+DIRECTIONS = ("forward", "backward", "left", "right")
+ROBUSTNESS_HEADER = ("| robot | push 100 N (forward, backward, left, right) | push 150 N | slopes, worst cell "
+                     "| rough ground, worst cell | mass, worst cell | trials per cell, dt, wall-clock |\n"
+                     "| --- | --- | --- | --- | --- | --- | --- |")
 HEADER = ("| robot | profiles | role | passed | falls | worst errors (vx, vy m/s; heading rad) "
           "| settling after a change, median / worst (vx; vy s) | date, code | MuJoCo C: passed, falls |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -80,10 +88,40 @@ def table(results: Path = RESULTS) -> str:
     return "\n".join([HEADER, *rows])
 
 
+def robustness_row(result: dict) -> str:
+    cells = result["cells"]
+    pushes = {(c["level"], c["direction"]): c["successes"] for c in cells["push"]}
+
+    def push(force: float) -> str:
+        return ", ".join(str(pushes[(force, d)]) for d in DIRECTIONS)
+
+    def worst(axis: str, unit: str) -> str:
+        cell = min(cells[axis], key=lambda c: (c["successes"], c["level"]))
+        levels = [c["level"] for c in cells[axis]]
+        return f"{cell['successes']}/{cell['trials']} ({min(levels):g} to {max(levels):g} {unit})"
+
+    sweep = result["sweep"]
+    return (f"| {result['robot']} | {push(100.0)} | {push(150.0)} | {worst('slope', 'degrees')} | "
+            f"{worst('rough', 'm')} | {worst('mass', 'x')} | {sweep['trials']}, {result['dt']} s, "
+            f"{result['wall_clock_s']:.0f} s |")
+
+
+def robustness_table(results: Path = RESULTS) -> str:
+    rows = []
+    for robot, name in ROBUSTNESS.items():
+        result = _read(results / name)
+        if result is None:
+            raise SystemExit(f"{results / name} is missing: run `mjx-cascade robustness` (benchmarks/README.md)")
+        check_policy(name, {"robot": robot, **result})
+        rows.append(robustness_row(result))
+    return "\n".join([ROBUSTNESS_HEADER, *rows])
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", type=Path, default=RESULTS, help="directory of the result files")
-    print(table(ap.parse_args(argv).results))
+    results = ap.parse_args(argv).results
+    print(table(results) + "\n\n" + robustness_table(results))
     return 0
 
 
