@@ -3,9 +3,9 @@
     python benchmarks/results_table.py
 
 Prints one markdown row per file in `FILES` (written by `mjx-cascade benchmark walking ... --out
-FILE`): the profile set and the role it has played, passes, falls, the worst per-segment errors,
-how long the 1-s average velocity took to settle after command changes (median and worst, vx and
-vy), the date and code version, and the passes and falls of the same profiles in MuJoCo's C engine
+FILE`): the profile set and the role it has played, passes, falls, the worst per-segment errors
+of the profiles that did not fall, how long the 1-s average velocity took to settle after command
+changes (median and worst, vx and vy), the date and code version, and the passes and falls of the same profiles in MuJoCo's C engine
 (the file `<name>_mujoco.json`, `--simulator mujoco`) where that file exists. Every file must
 judge the policy that ships now: a file of another policy is refused, so the table cannot show a
 stale figure. Then one row per robot in `ROBUSTNESS` (written by `mjx-cascade robustness`): the
@@ -28,17 +28,17 @@ FILES = {
     "walking/cassie_val_g320.json": "chose the checkpoint (of generations 300, 310, 320)",
     "walking/cassie_test.json": "drawn after the policy was frozen; run once",
     "walking/cassie_steps.json": "command steps across the full ranges",
-    "walking_cpu/digit_profiles.json": "chose the checkpoint and `command_rate`",
+    "walking/digit_val_g60.json": "chose the checkpoint (of generations 40, 50, 60)",
+    "walking/digit_test.json": "drawn after the policy was frozen; run once",
+    "walking/digit_steps.json": "command steps across the full ranges",
 }
-# sets judged before the profile sets by role existed (the shipped Digit policy's)
-LEGACY = {"walking_cpu/digit_profiles.json": "digit_rand01-50, digit_screen01-10"}
 # robot -> its shipped policy's robustness sweep (under RESULTS)
 ROBUSTNESS = {"cassie": "robustness_cpu_v1/robustness.json"}
 DIRECTIONS = ("forward", "backward", "left", "right")
 ROBUSTNESS_HEADER = ("| robot | push 100 N (forward, backward, left, right) | push 150 N | slopes, worst cell "
                      "| rough ground, worst cell | mass, worst cell | trials per cell, dt, wall-clock |\n"
                      "| --- | --- | --- | --- | --- | --- | --- |")
-HEADER = ("| robot | profiles | role | passed | falls | worst errors (vx, vy m/s; heading rad) "
+HEADER = ("| robot | profiles | role | passed | falls | worst errors without the falls (vx, vy m/s; heading rad) "
           "| settling after a change, median / worst (vx; vy s) | date, code | MuJoCo C: passed, falls |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 
@@ -51,11 +51,12 @@ def _seconds(r: dict | None) -> str:
 
 
 def row(name: str, result: dict, mujoco: dict | None) -> str:
-    worst = {k: max(s["worst"][k] for s in result["scenarios"]) for k in ("vx", "vy", "yaw")}
+    walked = [s for s in result["scenarios"] if not s["fell"]] or result["scenarios"]  # a fall's errors say only "fell"
+    worst = {k: max(s["worst"][k] for s in walked) for k in ("vx", "vy", "yaw")}
     errors = f"{worst['vx']:.4f}, {worst['vy']:.4f}; {worst['yaw']:.4f}"
     response = result.get("response", {})
     settle = f"{_seconds(response.get('vx'))}; {_seconds(response.get('vy'))}" if response else "not measured"
-    profiles = f"{LEGACY.get(name, result.get('set'))} ({result['count']})"
+    profiles = f"{result['set']} ({result['count']})"
     c = "not run" if mujoco is None else f"{mujoco['passed']} of {mujoco['count']}, {mujoco['fell']}"
     return (f"| {result['robot']} | {profiles} | {FILES[name]} | {result['passed']} of {result['count']} | "
             f"{result['fell']} | {errors} | {settle} | {result['date']}, `{result['code_version']}` | {c} |")

@@ -88,7 +88,7 @@ def write(found: policies.Policy, robot: Robot, foot_rest: float, dest: str | Pa
     np.savez(dest / WEIGHTS, params=found.params.astype(np.float32), **arrays)
     contract = {
         "format": FORMAT, "version": VERSION, "robot": cfg.robot, "model": model_identity(robot.model),
-        "policy": {"features": list(FEATURES), "mirror_lateral": cfg.policy.mirror_lateral,
+        "policy": {"features": list(FEATURES), "mirror_lateral": True,
                    "layers": [[int(k.shape[0]), int(k.shape[1])] for k, _ in net], "hidden": "relu",
                    "output": "sigmoid", "params": int(found.params.shape[0]),
                    "params_sha256": checkpoint.params_sha256(found.params)},

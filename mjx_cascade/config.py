@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-VERSION = 3  # of the saved form (`to_dict`); `migrate` reads every earlier one
+VERSION = 4  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp")
@@ -92,9 +92,6 @@ class GaitConfig:
 class PolicyConfig:
     hidden_layers: int
     hidden_units: int
-    # a right-stance step sees the state mirrored (lateral components negated), as its
-    # coefficients are (eq. 12; gait.velocity_to_role)
-    mirror_lateral: bool
 
     def __post_init__(self) -> None:
         need(self.hidden_layers >= 0 and self.hidden_units >= 1, "policy size must be positive")
@@ -437,7 +434,6 @@ def _deep_merge(base: dict, top: dict) -> dict:
 _V1_DEFAULTS = {
     "episode": {"command_change": [0.0, 0.0]},
     "gait": {"first_swing": "random"},
-    "policy": {"mirror_lateral": False},
     "regulators": {"k_height": 0.0, "k_i_drift_y": 0.05, "command_rate": [0.0, 0.0]},
     "rewards": {"velocity_steps": 1},
     "randomization": {"push_force": [0.0, 0.0], "push_seconds": 0.2, "push_after": [1.0, 3.0],
@@ -457,12 +453,14 @@ def migrate(data: dict) -> dict:
     and had `regulators.slope_estimation`, which was always on. Versions 1 and 2 have no
     validation checks during training (`_V2_DEFAULTS`), and may hold `regulators.height_over_slope`:
     the height regulation now always measures over the ground under the pelvis, so a config that
-    measured over the stance foot with the regulation on is no longer supported.
+    measured over the stance foot with the regulation on is no longer supported. Versions 1 to 3
+    may hold `policy.mirror_lateral` (version 1 without it meant false): right-stance steps now
+    always see the state mirrored, so a config that did not mirror it is no longer supported.
     """
     need(isinstance(data, dict), "a saved config must be a mapping")
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     version = data.pop("version", 1)
-    need(version in (1, 2, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
+    need(version in (1, 2, 3, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
     if version == 1:
         for section, defaults in _V1_DEFAULTS.items():
             data[section] = {**defaults, **data.get(section, {})}
@@ -475,6 +473,10 @@ def migrate(data: dict) -> dict:
         over_slope = data["regulators"].pop("height_over_slope", False)
         need(over_slope or data["regulators"].get("k_height", 0.0) == 0.0,
              "a saved config with regulators.height_over_slope false and k_height > 0 is no longer supported")
+    if version < 4:
+        need(data.get("policy", {}).pop("mirror_lateral", version > 1) is True,
+             "a saved config with policy.mirror_lateral false (right-stance steps seeing the state unmirrored) "
+             "is no longer supported")
     return data
 
 

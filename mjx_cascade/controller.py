@@ -84,14 +84,12 @@ class Controller:
     def plan(self, params: Array, q: Array, stance: Array, cmd: Array, v_avg: Array) -> Array:
         """pi_y o G (eq. 8, 11): Bezier coefficients `[N, M + 1]` for a step starting now at `q`.
 
-        With `policy.mirror_lateral` a right-stance step sees the state mirrored, as its
-        coefficients are (eq. 12; `gait.velocity_to_role`).
+        A right-stance step sees the state mirrored, as its coefficients are (eq. 12;
+        `gait.velocity_to_role`).
         """
         r = self.robot
         q_role = gait.absolute_to_role(q, stance, r.mirror)
-        v_des = cmd[:2]
-        if self.cfg.policy.mirror_lateral:
-            v_des, v_avg = gait.velocity_to_role(v_des, stance), gait.velocity_to_role(v_avg, stance)
+        v_des, v_avg = gait.velocity_to_role(cmd[:2], stance), gait.velocity_to_role(v_avg, stance)
         action = self.policy(params, features.features(v_des, v_avg))
         return gait.coefficients(action, q_role[r.learned_role, r.learned_joint], self.action_low, self.action_high)
 

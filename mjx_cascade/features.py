@@ -2,7 +2,7 @@
 
 s = (v_x^d, v_y^d, vbar_x, vbar_y, vbar_x - v_x^d, vbar_y - v_y^d), with vbar the pelvis
 velocity averaged over the last walking step, all in the heading frame (the world frame
-rotated by the pelvis yaw). With `policy.mirror_lateral` the environment hands them over in the
+rotated by the pelvis yaw). The controller hands them over in the
 left-stance picture of the role coordinates (`gait.velocity_to_role`): in right stance their
 lateral components are negated.
 """

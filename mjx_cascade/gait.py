@@ -53,7 +53,7 @@ def velocity_to_role(v: Array, stance: Array) -> Array:
     Role coordinates describe every walking step as a left-stance step (a right-stance step is
     its mirror image across the sagittal plane), so the policy that learns "the" step's
     coefficients must see the state in the same picture: in right stance the lateral
-    components change sign. Used for the policy's features when `policy.mirror_lateral` is set.
+    components change sign. The controller applies it to the policy's features.
     Deviation (reading of eq. 12): the paper maps the coefficients, alpha^L = T alpha^R, and is
     silent on the state. Without the state's mirror the same features give the same role
     coefficients in both stances, so a sideways gait, which needs different swing hip rolls on

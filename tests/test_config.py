@@ -93,11 +93,12 @@ def test_a_saved_config_round_trips_and_must_be_complete():
 
 def _version_1(cfg: config.Config) -> dict:
     """`cfg` as version 1 saved it: no version, the desired height under rewards, slope estimation,
-    the height over the slope as a setting."""
+    the height over the slope and the mirrored state as settings."""
     data = config.to_dict(cfg)
     del data["version"]
     data["rewards"]["height"] = data["regulators"].pop("height")
     data["regulators"].update(slope_estimation=True, height_over_slope=True)
+    data["policy"]["mirror_lateral"] = True
     return data
 
 
@@ -106,7 +107,7 @@ def test_migration_reads_a_version_1_config_as_it_meant():
     assert config.from_dict(_version_1(cfg)) == cfg  # every setting saved: nothing to fill in
     old = _version_1(cfg)
     for section, keys in {"randomization": ("push_force", "push_seconds", "push_after", "push_warmup_generations"),
-                          "episode": ("command_change",), "gait": ("first_swing",), "policy": ("mirror_lateral",),
+                          "episode": ("command_change",), "gait": ("first_swing",),
                           "rewards": ("velocity_steps",),
                           "regulators": ("k_height", "k_i_drift_y", "command_rate")}.items():
         for key in keys:
@@ -115,18 +116,23 @@ def test_migration_reads_a_version_1_config_as_it_meant():
     assert meant.gait.first_swing == "random" and meant.regulators.command_rate == (0.0, 0.0)
     assert meant.randomization.push_force == (0.0, 0.0) and meant.episode.command_change == (0.0, 0.0)
     assert meant.regulators.k_i_drift_y == 0.05 and meant.regulators.k_height == 0.0
-    assert meant.rewards.velocity_steps == 1 and not meant.policy.mirror_lateral
+    assert meant.rewards.velocity_steps == 1
     assert meant.regulators.height == 0.91
     off = _version_1(cfg)
     off["regulators"]["slope_estimation"] = False
     with pytest.raises(ConfigError, match="slope_estimation"):
         config.from_dict(off)
+    unmirrored = _version_1(cfg)
+    del unmirrored["policy"]["mirror_lateral"]  # saved before the setting: the state was not mirrored
+    with pytest.raises(ConfigError, match="mirror_lateral"):
+        config.from_dict(unmirrored)
 
 
 def test_migration_reads_a_version_2_config_as_one_without_validation_checks():
     cfg = config.robot_config("cassie").override(**{"train.eval_every": 5})
     old = {**config.to_dict(cfg), "version": 2}
     del old["train"]["eval_every"]
+    old["policy"] = {**old["policy"], "mirror_lateral": True}
     # the height regulation measures over the ground under the pelvis: saved as a setting until version 3
     old["regulators"]["height_over_slope"] = True
     assert config.from_dict(old) == cfg.override(**{"train.eval_every": 0})
@@ -137,17 +143,28 @@ def test_migration_reads_a_version_2_config_as_one_without_validation_checks():
     assert config.from_dict(unregulated).regulators.k_height == 0.0  # nothing measured: nothing changes
 
 
+def test_migration_reads_a_version_3_config_that_mirrored_the_state_and_refuses_one_that_did_not():
+    cfg = config.robot_config("cassie")
+    old = {**config.to_dict(cfg), "version": 3}
+    old["policy"] = {**old["policy"], "mirror_lateral": True}
+    assert config.from_dict(old) == cfg
+    old["policy"]["mirror_lateral"] = False
+    with pytest.raises(ConfigError, match="mirror_lateral false"):
+        config.from_dict(old)
+
+
 def test_the_shipped_policies_records_load_through_the_migration():
     for robot in config.ROBOTS:
         record = json.loads((ROOT / "mjx_cascade" / "policies" / robot / "record.json").read_text())
         assert config.from_dict(record["config"]).robot == robot
 
 
-def test_the_shipped_cassie_policy_trained_with_exactly_the_robots_config():
-    """`mjx-cascade train --robot cassie` trains what ships: nothing was changed after training."""
-    policy_dir = ROOT / "mjx_cascade" / "policies" / "cassie"
+@pytest.mark.parametrize("robot", list(config.ROBOTS))
+def test_the_shipped_policy_trained_with_exactly_the_robots_config(robot):
+    """`mjx-cascade train --robot R` trains what ships: nothing was changed after training."""
+    policy_dir = ROOT / "mjx_cascade" / "policies" / robot
     record = json.loads((policy_dir / "record.json").read_text())
-    assert config.from_dict(record["config"]) == config.robot_config("cassie")
+    assert config.from_dict(record["config"]) == config.robot_config(robot)
     assert not (policy_dir / "revisions.json").exists()
 
 
@@ -165,7 +182,7 @@ def test_differences_name_the_changed_keys_in_order():
                                         ("regulators.command_rate", [-1, 1]),
                                         ("randomization.push_warmup_generations", -1),
                                         ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0),
-                                        ("gait.first_swing", "left"), ("policy.mirror_lateral", 1)])
+                                        ("gait.first_swing", "left")])
 def test_bad_values_are_refused(key, value):
     with pytest.raises(ConfigError, match=key):
         config.robot_config("cassie").override(**{key: value})

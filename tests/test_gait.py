@@ -88,13 +88,11 @@ def test_step_ends_on_touchdown_after_min_phase_or_on_time_out():
 
 
 def test_a_right_stance_step_is_the_mirror_image_of_a_left_stance_step(cassie, cassie_cfg, cassie_pool, cassie_network):
-    """With `policy.mirror_lateral` (the shipped config's setting), the policy plans a right-stance
-    step from the mirrored state (lateral velocities and heading negated, legs swapped) exactly as
-    it plans the left-stance step: eq. 12 applied to the state as well as the coefficients.
-    Without it, it does not."""
+    """The policy plans a right-stance step from the mirrored state (lateral velocities and heading
+    negated, legs swapped) exactly as it plans the left-stance step: eq. 12 applied to the state as
+    well as the coefficients. The same state in the other stance gives another step."""
     from mjx_cascade.env import Env
 
-    assert cassie_cfg.policy.mirror_lateral
     r = cassie
     rng = np.random.default_rng(5)
     q = jnp.asarray(r.nominal_qpos[r.qpos_adr] + rng.uniform(-0.1, 0.1, size=r.qpos_adr.shape), jnp.float32)
@@ -102,16 +100,13 @@ def test_a_right_stance_step_is_the_mirror_image_of_a_left_stance_step(cassie, c
     cmd, v_avg = jnp.array([0.4, 0.25, 0.1]), jnp.array([0.3, 0.05])
     mirrored = jnp.array([1.0, -1.0, -1.0])
 
-    def plans(cfg):
-        ctl = Env(r, cfg, cassie_pool, cassie_network.apply).controller
-        p0 = cassie_network.init_params
-        params = p0 + 0.3 * jnp.asarray(rng.normal(size=p0.shape), jnp.float32)
-        left = ctl.plan(params, q, jnp.int32(gait.LEFT), cmd, v_avg)
-        right = ctl.plan(params, q_mirror, jnp.int32(gait.RIGHT), cmd * mirrored, v_avg * mirrored[:2])
-        return np.asarray(left), np.asarray(right)
-
-    left, right = plans(cassie_cfg)
+    ctl = Env(r, cassie_cfg, cassie_pool, cassie_network.apply).controller
+    p0 = cassie_network.init_params
+    params = p0 + 0.3 * jnp.asarray(rng.normal(size=p0.shape), jnp.float32)
+    left = np.asarray(ctl.plan(params, q, jnp.int32(gait.LEFT), cmd, v_avg))
+    right = np.asarray(ctl.plan(params, q_mirror, jnp.int32(gait.RIGHT), cmd * mirrored, v_avg * mirrored[:2]))
     np.testing.assert_allclose(right, left, atol=1e-6)
-    left, right = plans(cassie_cfg.override(**{"policy.mirror_lateral": False}))
-    np.testing.assert_allclose(right[:, :2], left[:, :2], atol=1e-6)  # impact invariance: the same start
-    assert np.abs(right[:, 2:] - left[:, 2:]).max() > 1e-3
+    # the unmirrored command and velocity in right stance: the policy sees other features
+    unmirrored = np.asarray(ctl.plan(params, q_mirror, jnp.int32(gait.RIGHT), cmd, v_avg))
+    np.testing.assert_allclose(unmirrored[:, :2], left[:, :2], atol=1e-6)  # impact invariance: the same start
+    assert np.abs(unmirrored[:, 2:] - left[:, 2:]).max() > 1e-3
