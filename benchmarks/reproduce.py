@@ -10,7 +10,7 @@ sha256 must match the record's too. Training is reproducible bit for bit on the 
 backend (the record's `reproducibility`), so one differing bit in any generation is a failure.
 Writes
 
-    {"run", "policy", "generations_compared", "identical", "first_difference", "params", "devices",
+    {"run", "policy", "generations_compared", "identical", "first_difference", "params",
      "shipped_devices", "code_version", "date"}
 
 and exits 1 unless every compared generation is identical.
@@ -24,7 +24,7 @@ import json
 import sys
 from pathlib import Path
 
-from mjx_cascade import benchmark, checkpoint
+from mjx_cascade import benchmark, checkpoint, policies
 
 TIMING = ("wall_clock_s", "samples_per_s")  # the only fields a rerun may change
 
@@ -38,7 +38,7 @@ def compare(run: Path, policy: Path) -> dict:
     """The generations the run logged, compared with the policy's log, and the parameters' hash where
     the run reached the policy's generation."""
     new, shipped = _rows(run / "metrics.jsonl"), _rows(policy / "metrics.jsonl")
-    record = json.loads((policy / "record.json").read_text())
+    record = policies.read(policy)[0]
     first = None
     for generation in sorted(new):
         if generation not in shipped:
@@ -54,7 +54,7 @@ def compare(run: Path, policy: Path) -> dict:
               "identical": first is None and bool(new), "first_difference": first,
               "shipped_devices": record.get("devices"), "params": None}
     if record["generation"] in new:
-        sha = checkpoint.params_sha256(checkpoint.read(run)[1])
+        sha = checkpoint.params_sha256(policies.read(run)[1])
         result["params"] = {"run": sha, "shipped": record["params_sha256"], "equal": sha == record["params_sha256"]}
         result["identical"] = result["identical"] and result["params"]["equal"]
     return result
