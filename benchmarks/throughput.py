@@ -17,6 +17,7 @@ after a compiling warm-up.
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import sys
@@ -30,7 +31,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from mjx_cascade import config, physics, policy, robots
+from mjx_cascade import benchmark, config, physics, policy, robots, train
 from mjx_cascade.env import make_env
 from mjx_cascade.physics import mjx
 
@@ -116,7 +117,8 @@ def main(argv: list[str] | None = None) -> int:
     cfg = config.robot_config(args.robot).override(**config.parse_assignments(args.set))
     network = policy.for_controller(cfg, len(robots.get(args.robot).learned), jax.random.PRNGKey(cfg.seed))
     result = {"device": jax.devices()[0].device_kind, "backend": jax.default_backend(), "robot": args.robot,
-              "dt": cfg.physics.dt, "steps": args.steps, "rows": []}
+              "dt": cfg.physics.dt, "steps": args.steps, "date": datetime.date.today().isoformat(),
+              "code_version": benchmark.code_version(), "versions": train.software_versions(), "rows": []}
     for impl in impls:
         for batch in batches:
             env = make_env(cfg.override(**{"physics.impl": impl}), network.apply)

@@ -19,7 +19,7 @@ def configure() -> None:
     flags = os.environ.get("XLA_FLAGS", "")
     if "xla_cpu_enable_concurrency_optimized_scheduler" not in flags:
         os.environ["XLA_FLAGS"] = f"{flags} {CPU_SCHEDULER_FLAG}".strip()
-    if _cpu_backend_started():
+    if cpu_backend_started():
         print(
             "mjx_cascade: JAX's CPU backend started before mjx_cascade was imported; "
             f"if batched CPU runs hang, set XLA_FLAGS={CPU_SCHEDULER_FLAG}",
@@ -30,10 +30,13 @@ def configure() -> None:
 DEVICE_COUNT_FLAG = "--xla_force_host_platform_device_count"
 
 
-def cpu_devices(value: str) -> int:
-    """`--cpu-devices`: a positive count, or `auto` for one device per core this process may use."""
+def cpu_devices(value: str, population: int | None = None, limit: int | None = None) -> int:
+    """`--cpu-devices`: a positive count, or `auto`: one device per core this process may use, as
+    many as share `population` evenly and the robot allows (`limit`, its `max_cpu_devices`)."""
     if value == "auto":
-        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        cap = min(cores, limit or cores)
+        return max(n for n in range(1, cap + 1) if population is None or population % n == 0)
     try:
         n = int(value)
     except ValueError:
@@ -43,17 +46,23 @@ def cpu_devices(value: str) -> int:
     return n
 
 
+def cpu_split_given() -> bool:
+    """Whether `XLA_FLAGS` already names a host device count (the user's own split)."""
+    return DEVICE_COUNT_FLAG in os.environ.get("XLA_FLAGS", "")
+
+
 def split_cpu(devices: int) -> None:
     """Split the CPU into `devices` JAX devices (the population is sharded over them). XLA reads
     the flag when JAX creates its CPU backend, so this must come before any JAX work; a count
     given in `XLA_FLAGS` already is replaced."""
-    if _cpu_backend_started():
+    if cpu_backend_started():
         raise RuntimeError("JAX's CPU backend has started: split the CPU before any JAX work")
     kept = [f for f in os.environ.get("XLA_FLAGS", "").split() if not f.startswith(DEVICE_COUNT_FLAG)]
     os.environ["XLA_FLAGS"] = " ".join(kept + [f"{DEVICE_COUNT_FLAG}={devices}"])
 
 
-def _cpu_backend_started() -> bool:
+def cpu_backend_started() -> bool:
+    """Whether JAX's CPU backend exists in this process (a split would then come too late)."""
     xb = sys.modules.get("jax._src.xla_bridge")
     return bool(xb is not None and getattr(xb, "_backends", None))
 

@@ -56,15 +56,25 @@ def is_checkpoint_dir(path: Path) -> bool:
     return path.is_dir() and any(p.is_dir() and p.name.isdigit() for p in path.iterdir())
 
 
+def run_dir(path: str | Path) -> Path:
+    """The run's `--out` of a checkpoint source: the run itself, its `checkpoints/`, or one saved
+    generation in it (`checkpoints/<generation>`)."""
+    path = Path(path).absolute()
+    return path.parent.parent if _is_generation(path) else path.parent if path.name == "checkpoints" else path
+
+
 def read(path: str | Path) -> tuple[dict, np.ndarray]:
-    """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`)."""
+    """`(meta, params)` of the latest checkpoint in `path` (a run's `--out` or its `checkpoints/`),
+    or of the generation `path` names (`checkpoints/<generation>`: choosing among saved ones)."""
     path = Path(path).absolute()  # orbax finds no array metadata under a relative path
+    step = int(path.name) if _is_generation(path) else None
+    path = path.parent if step is not None else path
     if (path / "checkpoints").is_dir():
         path = path / "checkpoints"
     if not is_checkpoint_dir(path):
         raise ConfigError(f"{path} is not a checkpoint directory (no saved generations in it)")
     mngr = manager(path)
-    step = mngr.latest_step()
+    step = mngr.latest_step() if step is None else step
     try:
         meta = mngr.restore(step, args=ocp.args.Composite(meta=ocp.args.JsonRestore())).meta
         state = _read_numpy(path / str(step) / "state")
@@ -73,6 +83,10 @@ def read(path: str | Path) -> tuple[dict, np.ndarray]:
     if not isinstance(meta, dict) or meta.get("format") not in READABLE:
         raise ConfigError(f"{path} is not an mjx_cascade checkpoint")
     return meta, np.asarray(state["mean"], dtype=np.float32)
+
+
+def _is_generation(path: Path) -> bool:
+    return path.name.isdigit() and path.parent.name == "checkpoints" and path.is_dir()
 
 
 def _read_numpy(path: Path) -> dict:

@@ -50,7 +50,8 @@ def build_parser() -> Parser:
 
 ROBOT_CHOICES = list(config_lib.ROBOTS)
 MODEL_HELP = "robot MJCF (required for Digit: its digit-v3.xml; Cassie: the menagerie's by default)"
-POLICY_HELP = "a run's --out, its checkpoints/, or a policy directory (default: the shipped policy)"
+POLICY_HELP = ("a run's --out (its latest generation), one saved generation (runs/X/checkpoints/300), "
+               "or a policy directory (default: the shipped policy)")
 IMPL_HELP = "MJX backend: jax, warp (NVIDIA GPUs) or auto, warp where it can run (default: auto)"
 
 
@@ -105,8 +106,9 @@ def _add_train(sub) -> None:
         train.add_argument(flag, type=kind, help=f"{what}; sets {key} ({_default(key)})")
     train.add_argument("--impl", choices=config_lib.IMPLS, help=IMPL_HELP + "; sets physics.impl")
     train.add_argument("--cpu-devices", metavar="N|auto",
-                       help="split the CPU into N JAX devices (auto: one per core) that share the population; "
-                            "about 2x for Cassie on 2 cores (default: JAX's, one unless XLA_FLAGS says)")
+                       help="split the CPU into N JAX devices that share the population; about 2x for Cassie "
+                            "on 2 cores (default: auto, one per core, as many as divide the population and "
+                            "the robot allows; a count already in XLA_FLAGS is kept)")
     train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="any config setting, e.g. --set es.sigma=0.05 (repeatable)")
     train.add_argument("--accept-changes", action="store_true",
@@ -218,7 +220,7 @@ def _add_export(sub) -> None:
                   "  mjx-cascade export --checkpoint runs/cassie --out bundles/mine\n")
     src = ex.add_mutually_exclusive_group(required=True)
     src.add_argument("--robot", choices=ROBOT_CHOICES, help="the robot's shipped policy")
-    src.add_argument("--checkpoint", metavar="DIR", help="a run's --out, its checkpoints/, or a policy directory")
+    src.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
     ex.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     ex.add_argument("--out", required=True, metavar="DIR", help="the bundle: contract.json and weights.npz (docs/bundle.md)")
     ex.set_defaults(func=cmd_export)
@@ -322,9 +324,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     cfg = training_config(args)
     log_to = loggers.parse(args.logger)
-    if args.cpu_devices is not None:  # before anything starts JAX
+    split = args.cpu_devices
+    if split is None and not _xla.cpu_split_given() and not _xla.cpu_backend_started():
+        split = "auto"  # both cores of a laptop by default; a split in XLA_FLAGS or a running JAX is kept
+    if split is not None:  # before anything starts JAX
         try:
-            devices = _xla.cpu_devices(args.cpu_devices)
+            devices = _xla.cpu_devices(split, cfg.es.population, robots.get(cfg.robot).max_cpu_devices)
         except ValueError as e:
             raise ConfigError(str(e)) from None
         train.check_devices(cfg, devices, "cpu")

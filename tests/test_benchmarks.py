@@ -76,3 +76,20 @@ def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tm
     said = capsys.readouterr().err  # progress, as eval's: the batch, then each tenth simulated
     assert "benchmark: batch 1/1: 1 scenario on the plane (walk_short)" in said
     assert said.count("benchmark: ") == 11 and "100% (10 of 10 s simulated)" in said
+
+
+def test_throughput_reports_each_rate_it_measured_with_its_provenance(tmp_path, monkeypatch):
+    """Two environments for five steps: every rate is a measured positive number, and the file says
+    what code and packages ran."""
+    tp = benchmark_script("throughput")
+    monkeypatch.setattr(tp.os, "cpu_count", lambda: 2)  # MuJoCo C on two threads, as on CI
+    out = tmp_path / "tp.json"
+    assert tp.main(["--robot", "cassie", "--out", str(out), "--batch", "2", "--steps", "5",
+                    "--set", "episode.pool_size=4"]) == 0
+    result = json.loads(out.read_text())
+    assert result["backend"] == jax.default_backend() and result["steps"] == 5 and result["code_version"]
+    assert result["versions"]["mujoco"] and result["date"]
+    (row,) = result["rows"]
+    assert row["impl"] == "jax" and row["batch"] == 2
+    assert 0 < row["controller_steps_per_s"] and 0 < row["physics_steps_per_s"]
+    assert result["cpu_mujoco_steps_per_s"] > 0 and result["cpu_cores"] == 2

@@ -115,6 +115,10 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
     # every 10 generations by default, and always where a run stops
     assert sorted(p.name for p in (out / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "3"]
     assert (out / "learning_curve.png").stat().st_size > 10_000
+    from mjx_cascade import _xla, policies
+
+    # no --cpu-devices: the population is shared over one device per core (two on a 2-core CPU)
+    assert policies.read(out)[0]["devices"] == _xla.cpu_devices("auto", population=4)
 
 
 @pytest.mark.slow
@@ -428,6 +432,18 @@ def test_cpu_devices_split_the_cpu_before_jax_starts():
 
         jax.devices()
         _xla.split_cpu(2)
+
+
+def test_auto_takes_the_most_cores_that_share_the_population_and_the_robot_allows(monkeypatch):
+    from mjx_cascade import _xla
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(16)))
+    assert _xla.cpu_devices("auto", population=24) == 12  # 16 cores, but 24 splits into 12
+    assert _xla.cpu_devices("auto", population=24, limit=1) == 1  # Digit
+    assert _xla.cpu_devices("auto", population=7) == 7 and _xla.cpu_devices("auto", population=17) == 1
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    assert _xla.cpu_devices("auto", population=24) == 2 and _xla.cpu_devices("auto", population=3) == 1
+    assert _xla.cpu_devices("5", population=24) == 5  # a count given is the user's; check_devices refuses it
 
 
 def test_version_and_help_for_every_option_with_examples_per_command():

@@ -64,6 +64,16 @@ def test_eval_every_checks_the_mean_and_keeps_the_best_as_a_loadable_policy(tmp_
     assert [r["generation"] for r in map(json.loads, (out / "best" / "metrics.jsonl").read_text().splitlines())] == \
         list(range(1, best["generation"] + 1))
 
+    # any saved generation, not only the latest, is a policy source: checkpoints/<generation>
+    for generation in (2, 4):
+        saved = checkpoint.manager(out / "checkpoints").restore(
+            generation, args=ocp.args.Composite(meta=ocp.args.JsonRestore())).meta
+        assert policies.load(out / "checkpoints" / str(generation)).record == saved
+        exported = policies.read(policies.export(out / "checkpoints" / str(generation), tmp_path / f"g{generation}"))
+        assert exported[0] == saved and checkpoint.params_sha256(exported[1]) == saved["params_sha256"]
+        assert len((tmp_path / f"g{generation}" / "metrics.jsonl").read_text().splitlines()) == generation
+    assert policies.load(out).generation == 4
+
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
     board = EventAccumulator(str(out / "tensorboard"))

@@ -80,10 +80,11 @@ def load(source: str | Path) -> Policy:
 
 
 def export(run: str | Path, dest: str | Path) -> Path:
-    """Write the latest checkpoint of training run `run` as a policy directory `dest`: its
-    parameters and record, and the run's metrics up to that generation with their learning curve."""
+    """Write the latest checkpoint of training run `run` (or the generation `run/checkpoints/<G>`)
+    as a policy directory `dest`: its parameters and record, and the run's metrics up to that
+    generation with their learning curve."""
     record, params = checkpoint.read(run)
-    rows = [json.loads(line) for line in (Path(run) / METRICS).read_text().splitlines() if line]
+    rows = [json.loads(line) for line in (checkpoint.run_dir(run) / METRICS).read_text().splitlines() if line]
     return write(dest, record, params, [r for r in rows if r["generation"] <= record["generation"]])
 
 
