@@ -185,8 +185,9 @@ def _add_benchmark(sub) -> None:
     bench.add_argument("--checkpoint", metavar="DIR", help=POLICY_HELP)
     bench.add_argument("--model", metavar="PATH", help=MODEL_HELP)
     which = bench.add_mutually_exclusive_group(required=True)
-    which.add_argument("--profiles", choices=(*profiles_roles(), "steps"),
-                       help="a profile set by role (configs/sets.yaml: dev, val, test) or the command steps")
+    which.add_argument("--profiles", choices=profiles_names(),
+                       help="a profile set by role (configs/sets.yaml: dev, val, test), the command steps, "
+                            "or the starts from standing into the ranges' corners")
     which.add_argument("--scenario", nargs="+", metavar="NAME|FILE", help="scenario files or shipped names")
     bench.add_argument("--out", required=True, metavar="FILE", help="the result file (JSON)")
     bench.add_argument("--dt", type=float, help=f"physics time step, s (default {config_lib.PAPER_DT}, the paper's)")
@@ -196,10 +197,10 @@ def _add_benchmark(sub) -> None:
     bench.set_defaults(func=cmd_benchmark)
 
 
-def profiles_roles() -> tuple[str, ...]:
+def profiles_names() -> tuple[str, ...]:
     from mjx_cascade import profiles
 
-    return profiles.ROLES
+    return profiles.ROLES + profiles.NAMED
 
 
 def _add_revise(sub) -> None:

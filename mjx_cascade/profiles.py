@@ -6,7 +6,8 @@ segment's vx, vy and heading drawn uniformly over the full ranges, so reversals 
 range occur as a user makes them. The same seed draws the same profiles (NumPy's PCG64).
 
 `steps` are the command steps a response time is measured on: each of vx, vy and the heading
-held at one end of its range for `STEP_AT` s, then stepped to the other end.
+held at one end of its range for `STEP_AT` s, then stepped to the other end. `starts` start from
+standing into every corner and middle of the ranges at once (the first command a user gives).
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ SEGMENT_SECONDS = (4.0, 5.0, 6.0)
 DURATION = 20.0  # s
 STEP_AT, STEP_DURATION = 6.0, 12.0  # s: the step, and the profile's end
 STEP_CRUISE = 0.2  # m/s forward while vy or the heading steps: both are judged while walking
+START_DURATION = 6.0  # s: 2 s to settle, then a 4-s segment the bar judges
+NAMED = ("steps", "starts")  # the sets that are not drawn
 
 
 def sets() -> dict[str, dict[str, dict[str, Any]]]:
@@ -52,7 +55,7 @@ def command_ranges(cfg: Config) -> dict[str, tuple[float, float]]:
 def draw_set(robot: str, role: str) -> list[Scenario]:
     """The profiles of `robot`'s `role` set (`configs/sets.yaml`), named `<robot>_<role>NN`."""
     if role not in ROLES:
-        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES)} (or steps)")
+        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES + NAMED)}")
     entry = sets().get(robot, {}).get(role)
     if entry is None:
         raise ConfigError(f"{robot} has no {role} set yet" + (
@@ -78,6 +81,18 @@ def steps(robot: str) -> list[Scenario]:
     return out
 
 
+def starts(robot: str) -> list[Scenario]:
+    """From standing into one command held for `START_DURATION` s: vx at both ends of its range,
+    their halves and 0, each with vy at either end or 0 and the heading at either end or 0 (45)."""
+    ranges = command_ranges(robot_config(robot))
+    lo, hi = ranges["vx"]
+    grid = [(vx, vy, yaw) for vx in (lo, lo / 2, 0.0, hi / 2, hi)
+            for vy in (ranges["vy"][0], 0.0, ranges["vy"][1]) for yaw in (ranges["yaw"][0], 0.0, ranges["yaw"][1])]
+    return [parse({"name": f"{robot}_start{k:02d}", "duration": START_DURATION,
+                   "commands": [{"t": 0.0, "vx": float(vx), "vy": float(vy), "yaw": float(yaw)}]})
+            for k, (vx, vy, yaw) in enumerate(grid, 1)]
+
+
 def resolve(robot: str, name: str) -> list[Scenario]:
-    """The scenarios of a named set: `dev`, `val`, `test` or `steps`."""
-    return steps(robot) if name == "steps" else draw_set(robot, name)
+    """The scenarios of a named set: `dev`, `val`, `test`, `steps` or `starts`."""
+    return {"steps": steps, "starts": starts}.get(name, lambda r: draw_set(r, name))(robot)

@@ -51,6 +51,21 @@ def test_steps_cross_each_range_end_to_end():
     assert profiles.resolve("cassie", "steps") == list(steps.values())
 
 
+@pytest.mark.parametrize("robot", ["cassie", "digit"])
+def test_starts_go_from_standing_into_every_corner_and_middle_of_the_ranges(robot):
+    e = config.robot_config(robot).episode
+    starts = profiles.resolve(robot, "starts")
+    assert len(starts) == 45 and len({s.name for s in starts}) == 45
+    assert all(s.duration == profiles.START_DURATION and len(s.commands) == 1 and s.commands[0][0] == 0.0
+               for s in starts)
+    commands = {s.commands[0][1:] for s in starts}
+    assert len(commands) == 45  # no start twice
+    assert (e.vx[0], e.vy[1], e.yaw[1]) in commands and (e.vx[1], e.vy[0], e.yaw[0]) in commands
+    assert (e.vx[0] / 2, 0.0, e.yaw[1]) in commands and (0.0, 0.0, 0.0) in commands
+    for k, (lo, hi) in enumerate((e.vx, e.vy, e.yaw)):
+        assert min(c[k] for c in commands) == lo and max(c[k] for c in commands) == hi
+
+
 def _segment(t, cmd, settle):
     return {"t_start": t, "cmd": cmd, "settle": dict(zip(("vx", "vy", "yaw"), settle))}
 
