@@ -31,6 +31,7 @@ FILES = {
     "walking/digit_val_g60.json": "chose the checkpoint (of generations 40, 50, 60)",
     "walking/digit_test.json": "drawn after the policy was frozen; run once",
     "walking/digit_steps.json": "command steps across the full ranges",
+    "walking/digit_starts.json": "starts from standing into the ranges' corners",
 }
 # robot -> its shipped policy's robustness sweep (under RESULTS)
 ROBUSTNESS = {"cassie": "robustness_cpu_v1/robustness.json"}
