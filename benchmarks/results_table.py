@@ -1,6 +1,6 @@
 """The README's results table, built from the walking benchmark's result files.
 
-    python benchmarks/results_table.py
+    python benchmarks/results_table.py [--write]
 
 Prints one markdown row per file in `FILES` (written by `mjx-cascade benchmark walking ... --out
 FILE`): the profile set and the role it has played, passes, falls, the worst per-segment errors
@@ -10,7 +10,8 @@ changes (median and worst, vx and vy), the date and code version, and the passes
 judge the policy that ships now: a file of another policy is refused, so the table cannot show a
 stale figure. Then one row per robot in `ROBUSTNESS` (written by `mjx-cascade robustness`): the
 successes of the pushes at 100 and 150 N in each direction and the worst cell of each other axis.
-`tests/test_readme.py` checks that the README holds exactly these tables.
+`--write` puts them into README.md in place of the old ones; `tests/test_readme.py` checks that
+the README holds exactly these tables.
 """
 
 from __future__ import annotations
@@ -119,11 +120,29 @@ def robustness_table(results: Path = RESULTS) -> str:
     return "\n".join([ROBUSTNESS_HEADER, *rows])
 
 
+def replace_table(text: str, new: str) -> str:
+    """`text` with the markdown table that starts with `new`'s header line replaced by `new`."""
+    lines, header = text.split("\n"), new.split("\n")[0]
+    if header not in lines:
+        raise SystemExit(f"no table headed {header[:60]!r}... in the README")
+    start = lines.index(header)
+    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
+    return "\n".join(lines[:start] + new.split("\n") + lines[end:])
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--results", type=Path, default=RESULTS, help="directory of the result files")
-    results = ap.parse_args(argv).results
-    print(table(results) + "\n\n" + robustness_table(results))
+    ap.add_argument("--write", action="store_true", help="put the tables into README.md in place of the old ones")
+    args = ap.parse_args(argv)
+    tables = (table(args.results), robustness_table(args.results))
+    if args.write:
+        readme = ROOT / "README.md"
+        text = readme.read_text()
+        for new in tables:
+            text = replace_table(text, new)
+        readme.write_text(text)
+    print("\n\n".join(tables))
     return 0
 
 
