@@ -29,6 +29,7 @@ FILES = {
     "walking/cassie_val_g320.json": "chose the checkpoint (of generations 300, 310, 320)",
     "walking/cassie_test.json": "drawn after the policy was frozen; run once",
     "walking/cassie_steps.json": "command steps across the full ranges",
+    "walking/cassie_starts.json": "starts from standing into the ranges' corners",
     "walking/digit_val_g60.json": "chose the checkpoint (of generations 40, 50, 60)",
     "walking/digit_test.json": "drawn after the policy was frozen; run once",
     "walking/digit_steps.json": "command steps across the full ranges",
