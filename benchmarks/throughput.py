@@ -5,13 +5,15 @@
 For every MJX backend available on JAX's default device (`jax` always, `warp` on NVIDIA GPUs
 with mujoco-warp) and every batch size:
 - `controller_steps_per_s`: physics steps per second with the whole cascade controller, the
-  policy, the rewards and termination in the loop, exactly as training runs them (`Env.step`);
+  policy, the rewards and termination in the loop, exactly as training runs them (`Env.step`),
+  on JAX's default device alone (training on a CPU split into N devices runs N such batches);
 - `physics_steps_per_s`: `mjx.step` alone on the same model, time step, solver and batch, zero
   control;
 - `peak_memory_bytes`: the device's peak allocation (where JAX reports it).
 Plus `cpu_mujoco_steps_per_s`: MuJoCo's C `rollout` with one environment per CPU core (the
-paper's kind of setup), same model and time step. Each figure is the best of three timed runs
-after a compiling warm-up.
+paper's kind of setup), same model and time step, and per row `controller_vs_cpu_mujoco`, the
+trainer's rate as a share of it. Each figure is the best of three timed runs after a compiling
+warm-up.
 """
 
 from __future__ import annotations
@@ -117,6 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     cfg = config.robot_config(args.robot).override(**config.parse_assignments(args.set))
     network = policy.for_controller(cfg, len(robots.get(args.robot).learned), jax.random.PRNGKey(cfg.seed))
     result = {"device": jax.devices()[0].device_kind, "backend": jax.default_backend(), "robot": args.robot,
+              "devices": 1,
               "dt": cfg.physics.dt, "steps": args.steps, "date": datetime.date.today().isoformat(),
               "code_version": benchmark.code_version(), "versions": train.software_versions(), "rows": []}
     for impl in impls:
@@ -129,13 +132,15 @@ def main(argv: list[str] | None = None) -> int:
             result["rows"].append(row)
             print(json.dumps(row), file=sys.stderr, flush=True)
     result["cpu_mujoco_steps_per_s"], result["cpu_cores"] = cpu_mujoco_rate(env, max(args.steps, 1000))
+    for r in result["rows"]:  # the trainer's rate as a share of MuJoCo C's on the same machine's cores
+        r["controller_vs_cpu_mujoco"] = r["controller_steps_per_s"] / result["cpu_mujoco_steps_per_s"]
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Path(args.out).write_text(json.dumps(result, indent=2) + "\n")
-    print(f"{'impl':6} {'batch':>7} {'controller/s':>14} {'physics/s':>12} {'ratio':>6}")
+    print(f"{'impl':6} {'batch':>7} {'controller/s':>14} {'physics/s':>12} {'ratio':>6} {'of C':>6}")
     for r in result["rows"]:
         ratio = r["controller_steps_per_s"] / r["physics_steps_per_s"]
         print(f"{r['impl']:6} {r['batch']:7d} {r['controller_steps_per_s']:14,.0f} {r['physics_steps_per_s']:12,.0f} "
-              f"{ratio:6.2f}")
+              f"{ratio:6.2f} {r['controller_vs_cpu_mujoco']:6.2f}")
     print(f"CPU MuJoCo rollout, {result['cpu_cores']} cores: {result['cpu_mujoco_steps_per_s']:,.0f} steps/s")
     return 0
 

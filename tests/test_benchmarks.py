@@ -93,3 +93,4 @@ def test_throughput_reports_each_rate_it_measured_with_its_provenance(tmp_path, 
     assert row["impl"] == "jax" and row["batch"] == 2
     assert 0 < row["controller_steps_per_s"] and 0 < row["physics_steps_per_s"]
     assert result["cpu_mujoco_steps_per_s"] > 0 and result["cpu_cores"] == 2
+    assert row["controller_vs_cpu_mujoco"] == row["controller_steps_per_s"] / result["cpu_mujoco_steps_per_s"]
