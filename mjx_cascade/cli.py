@@ -200,7 +200,7 @@ def _add_benchmark(sub) -> None:
 def profiles_names() -> tuple[str, ...]:
     from mjx_cascade import profiles
 
-    return profiles.ROLES + profiles.NAMED
+    return profiles.ROLES + tuple(profiles.NAMED)
 
 
 def _add_revise(sub) -> None:

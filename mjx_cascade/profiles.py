@@ -27,7 +27,6 @@ DURATION = 20.0  # s
 STEP_AT, STEP_DURATION = 6.0, 12.0  # s: the step, and the profile's end
 STEP_CRUISE = 0.2  # m/s forward while vy or the heading steps: both are judged while walking
 START_DURATION = 6.0  # s: 2 s to settle, then a 4-s segment the bar judges
-NAMED = ("steps", "starts")  # the sets that are not drawn
 
 
 def sets() -> dict[str, dict[str, dict[str, Any]]]:
@@ -55,7 +54,7 @@ def command_ranges(cfg: Config) -> dict[str, tuple[float, float]]:
 def draw_set(robot: str, role: str) -> list[Scenario]:
     """The profiles of `robot`'s `role` set (`configs/sets.yaml`), named `<robot>_<role>NN`."""
     if role not in ROLES:
-        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES + NAMED)}")
+        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES + tuple(NAMED))}")
     entry = sets().get(robot, {}).get(role)
     if entry is None:
         raise ConfigError(f"{robot} has no {role} set yet" + (
@@ -93,6 +92,9 @@ def starts(robot: str) -> list[Scenario]:
             for k, (vx, vy, yaw) in enumerate(grid, 1)]
 
 
+NAMED = {"steps": steps, "starts": starts}  # the sets that are not drawn, by name
+
+
 def resolve(robot: str, name: str) -> list[Scenario]:
     """The scenarios of a named set: `dev`, `val`, `test`, `steps` or `starts`."""
-    return {"steps": steps, "starts": starts}.get(name, lambda r: draw_set(r, name))(robot)
+    return NAMED[name](robot) if name in NAMED else draw_set(robot, name)
