@@ -2,13 +2,14 @@
 
     python benchmarks/throughput.py --robot cassie --out FILE.json [--batch B ...] [--steps T]
 
-For every MJX backend available on JAX's default device (`jax` always, `warp` on NVIDIA GPUs
-with mujoco-warp) and every batch size:
+For every physics backend available on JAX's default device (`jax` always, `warp` on NVIDIA GPUs
+with mujoco-warp, `mujoco`, MuJoCo's C engine called from JAX, where `--impl` asks for it) and
+every batch size:
 - `controller_steps_per_s`: physics steps per second with the whole cascade controller, the
   policy, the rewards and termination in the loop, exactly as training runs them (`Env.step`),
   on JAX's default device alone (training on a CPU split into N devices runs N such batches);
-- `physics_steps_per_s`: `mjx.step` alone on the same model, time step, solver and batch, zero
-  control;
+- `physics_steps_per_s`: the backend's step alone (`Env.physics_step`: `mjx.step` or the C
+  engine's) on the same model, time step, solver and batch, zero control;
 - `peak_memory_bytes`: the device's peak allocation (where JAX reports it).
 Plus `cpu_mujoco_steps_per_s`: MuJoCo's C `rollout` with one environment per CPU core (the
 paper's kind of setup), same model and time step, and per row `controller_vs_cpu_mujoco`, the
@@ -66,7 +67,7 @@ def controller_rate(env, init_params, batch: int, steps: int) -> float:
 def physics_rate(env, batch: int, steps: int) -> float:
     data = env.data_template(batch).replace(qpos=jnp.asarray(env.pool_qpos[0]), qvel=jnp.asarray(env.pool_qvel[0]))
     data = jax.jit(jax.vmap(lambda _: mjx.forward(env.model, data)))(jnp.arange(batch))
-    step = jax.vmap(lambda d: mjx.step(env.model, d))
+    step = jax.vmap(lambda d: env.physics_step(env.model, d))
 
     @jax.jit
     def run(data):
@@ -109,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", required=True)
     p.add_argument("--batch", type=int, nargs="+", default=None)
     p.add_argument("--steps", type=int, default=200)
-    p.add_argument("--impl", choices=("jax", "warp"), nargs="+", default=None)
+    p.add_argument("--impl", choices=("jax", "warp", "mujoco"), nargs="+", default=None)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = p.parse_args(argv)
 
@@ -129,6 +130,9 @@ def main(argv: list[str] | None = None) -> int:
                    "controller_steps_per_s": controller_rate(env, network.init_params, batch, args.steps),
                    "physics_steps_per_s": physics_rate(env, batch, args.steps),
                    "peak_memory_bytes": peak_memory()}
+            engine = getattr(env.physics_step, "__self__", None)  # the C engine's, with its threads
+            if engine is not None:
+                row["engine_threads"] = engine.threads
             result["rows"].append(row)
             print(json.dumps(row), file=sys.stderr, flush=True)
     result["cpu_mujoco_steps_per_s"], result["cpu_cores"] = cpu_mujoco_rate(env, max(args.steps, 1000))

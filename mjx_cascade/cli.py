@@ -52,7 +52,8 @@ ROBOT_CHOICES = list(config_lib.ROBOTS)
 MODEL_HELP = "robot MJCF (required for Digit: its digit-v3.xml; Cassie: the menagerie's by default)"
 POLICY_HELP = ("a run's --out (its latest generation), one saved generation (runs/X/checkpoints/300), "
                "or a policy directory (default: the shipped policy)")
-IMPL_HELP = "MJX backend: jax, warp (NVIDIA GPUs) or auto, warp where it can run (default: auto)"
+IMPL_HELP = ("physics backend: jax, warp (NVIDIA GPUs), mujoco (MuJoCo's C engine, threaded: CPUs) or auto, "
+             "warp where it can run, else jax (default: auto)")
 
 
 def _command(sub, name: str, help: str, examples: str) -> Parser:
@@ -330,7 +331,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         split = "auto"  # both cores of a laptop by default; a split in XLA_FLAGS or a running JAX is kept
     if split is not None:  # before anything starts JAX
         try:
-            devices = _xla.cpu_devices(split, cfg.es.population, robots.get(cfg.robot).max_cpu_devices)
+            # the C engine threads every step over all the cores itself: one JAX device feeds it
+            limit = 1 if cfg.physics.impl == "mujoco" else robots.get(cfg.robot).max_cpu_devices
+            devices = _xla.cpu_devices(split, cfg.es.population, limit)
         except ValueError as e:
             raise ConfigError(str(e)) from None
         train.check_devices(cfg, devices, "cpu")

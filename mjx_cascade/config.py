@@ -25,7 +25,7 @@ import yaml
 VERSION = 4  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
-IMPLS = ("auto", "jax", "warp")
+IMPLS = ("auto", "jax", "warp", "mujoco")
 PAPER_DT = 0.0005  # s: the paper's 2 kHz loop; training steps at `physics.dt`, evaluation here by default
 FIRST_SWING = ("random", "command")
 OPTIMIZERS = ("adam", "sgd")
@@ -54,7 +54,7 @@ def _interval(pair: tuple[float, float], name: str, floor: float | None = None, 
 @dataclasses.dataclass(frozen=True)
 class PhysicsConfig:
     dt: float  # physics time step, s (the paper: 0.0005, the robot's 2 kHz loop)
-    impl: str  # auto: warp on an NVIDIA GPU with mujoco-warp, else jax
+    impl: str  # auto: warp on an NVIDIA GPU with mujoco-warp, else jax; mujoco: MuJoCo's C engine (CPUs)
     solver_iterations: int
     ls_iterations: int
     contacts_per_env: int  # warp: contact buffer per environment (only the feet collide)

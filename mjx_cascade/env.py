@@ -23,7 +23,7 @@ from mjx_cascade import features, pd, regulators, rewards, robots, standing
 from mjx_cascade.config import Config
 from mjx_cascade.controller import Controller, ControllerState, Policy
 from mjx_cascade.observe import Obs, ground_height, observe
-from mjx_cascade.physics import make_data, mjx, put_model, resolve_impl
+from mjx_cascade.physics import make_data, mjx, put_model, resolve_impl, stepper
 from mjx_cascade.robots import scene
 from mjx_cascade.robots.base import Robot
 
@@ -52,6 +52,7 @@ class Env:
         self.height_field = scene.height_field(robot.model)  # None on a plane
         self.impl = resolve_impl(cfg.physics.impl)
         self.model = put_model(robot.model, self.impl)
+        self.physics_step = stepper(robot.model, self.impl)
         self.pool_qpos = jnp.asarray(pool[0], dtype=jnp.float32)
         self.pool_qvel = jnp.asarray(pool[1], dtype=jnp.float32)
         self.dt = float(robot.model.opt.timestep)
@@ -90,7 +91,7 @@ class Env:
         data = state.data.replace(ctrl=state.data.ctrl.at[r.actuator].set(pd.motor_command(u, r.gear, r.ctrl_low, r.ctrl_high)))
         if force is not None:
             data = data.replace(xfrc_applied=data.xfrc_applied.at[r.pelvis_body, :3].set(force))
-        data = mjx.step(model, data)
+        data = self.physics_step(model, data)
         # scored against the command followed, which is all the controller is asked to do
         x = self.reward_inputs(obs, ctrl, u)
         terms = rewards.terms(x, cfg.rewards, cfg.regulators.height)

@@ -91,7 +91,9 @@ def after_smoke(smoke, tmp_path_factory):
             "again": ["train", "--robot", "cassie", "--generations", 3, *SMOKE],
             # a changed reward setting, accepted: the run goes on with it and records the change
             "changed": ["train", "--robot", "cassie", "--generations", 4, *SMOKE, "--set",
-                        "rewards.termination_penalty=10", "--accept-changes"]}
+                        "rewards.termination_penalty=10", "--accept-changes"],
+            # MuJoCo's C engine for the physics
+            "c_engine": ["train", "--robot", "cassie", "--generations", 2, *SMOKE, "--impl", "mujoco"]}
     shutil.copytree(smoke[0], tmp / "changed")
     jobs = {name: (tmp / name, start_cli(tmp / name, *args, "--out", tmp / name)) for name, args in runs.items()}
     return {**jobs, "exported": exported}
@@ -188,6 +190,23 @@ def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_genera
     code, err = _main(["train", "--robot", "cassie", "--out", tmp_path / "none", "--init", exported,
                        "--generations", 3, *SMOKE], capsys)
     assert code == 2 and "nothing to train" in err and not (tmp_path / "none").exists()
+
+
+@pytest.mark.slow
+def test_training_steps_the_c_engine_from_one_device_that_feeds_every_core(after_smoke):
+    """`--impl mujoco`: one JAX device by default (the engine threads each step over the cores),
+    recorded with the run, and the generations score real episodes."""
+    from mjx_cascade import policies
+
+    out, proc = after_smoke["c_engine"]
+    res = finished(proc, out)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert policies.read(out)[0]["devices"] == 1
+    assert config.load(out / "config.yaml").physics.impl == "mujoco"
+    rows = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
+    assert [r["generation"] for r in rows] == [1, 2]
+    assert all(np.isfinite(r["fitness_mean"]) and r["physics_steps"] > 0 for r in rows)
+    assert any(r["reward/orientation"] < 0 for r in rows)
 
 
 @pytest.mark.slow
