@@ -331,9 +331,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         split = "auto"  # both cores of a laptop by default; a split in XLA_FLAGS or a running JAX is kept
     if split is not None:  # before anything starts JAX
         try:
-            # the C engine threads every step over all the cores itself: one JAX device feeds it
-            limit = 1 if cfg.physics.impl == "mujoco" else robots.get(cfg.robot).max_cpu_devices
-            devices = _xla.cpu_devices(split, cfg.es.population, limit)
+            devices = train.cpu_device_count(cfg, split)
         except ValueError as e:
             raise ConfigError(str(e)) from None
         train.check_devices(cfg, devices, "cpu")

@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec
 
-from mjx_cascade import checkpoint, episodes, es, evaluate, loggers, plots, policies, policy, profiles, rewards, robots
+from mjx_cascade import _xla, checkpoint, episodes, es, evaluate, loggers, plots, policies, policy, profiles, rewards, robots
 from mjx_cascade.config import PAPER_DT, Config, ConfigError, differences, from_dict, get, to_dict
 from mjx_cascade.env import Env, make_env
 from mjx_cascade.scenario import Scenario
@@ -130,6 +130,14 @@ def setup(cfg: Config, model_path: str | None = None, init: str | Path | None = 
                                          "generation": generation, "source": str(init)}
     return Trainer(cfg, env, network, make_run(env, strategy, cfg.train.generations_per_call), replicate(state),
                    devices, record)
+
+
+def cpu_device_count(cfg: Config, value: str = "auto") -> int:
+    """`--cpu-devices` for `cfg`: a count, or `auto`, one JAX device per core, as many as divide the
+    population and the robot allows; one with the C engine, which threads each step over every
+    core itself (`physics.CEngine`)."""
+    limit = 1 if cfg.physics.impl == "mujoco" else robots.get(cfg.robot).max_cpu_devices
+    return _xla.cpu_devices(value, cfg.es.population, limit)
 
 
 def check_devices(cfg: Config, devices: int, backend: str) -> None:

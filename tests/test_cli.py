@@ -463,6 +463,11 @@ def test_auto_takes_the_most_cores_that_share_the_population_and_the_robot_allow
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
     assert _xla.cpu_devices("auto", population=24) == 2 and _xla.cpu_devices("auto", population=3) == 1
     assert _xla.cpu_devices("5", population=24) == 5  # a count given is the user's; check_devices refuses it
+    from mjx_cascade import train
+
+    cassie = config.robot_config("cassie")
+    assert train.cpu_device_count(cassie) == 2 and train.cpu_device_count(config.robot_config("digit")) == 1
+    assert train.cpu_device_count(cassie.override(**{"physics.impl": "mujoco"})) == 1  # the engine threads itself
 
 
 def test_version_and_help_for_every_option_with_examples_per_command():
