@@ -16,6 +16,7 @@ import importlib.util
 import io
 import os
 import sys
+import threading
 from typing import Callable
 
 import jax
@@ -86,8 +87,8 @@ def stepper(model: mujoco.MjModel, impl: str) -> Step:
     return CEngine(model).step if impl == "mujoco" else mjx.step
 
 
-# the model fields an environment may hold its own value of (`randomization`, `world.terrains`)
-PER_ENVIRONMENT = ("body_mass", "body_ipos", "hfield_data")
+# the model fields an environment may hold its own value of (`randomization`)
+PER_ENVIRONMENT = ("body_mass", "body_ipos")
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _CONTROL = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED
 
@@ -96,7 +97,7 @@ class CEngine:
     """Steps of MuJoCo's C engine for a batch of environments, as one JAX callback.
 
     `step` reads the state, controls, pelvis forces and per-environment model fields
-    (`PER_ENVIRONMENT`) of the whole vmapped batch, steps every environment once with
+    (`PER_ENVIRONMENT`; one terrain for the whole batch, the model's) of the whole vmapped batch, steps every environment once with
     `mujoco.rollout` on `threads` threads, and returns the new state. The fields the observation
     reads besides the state (positions and orientations of the bodies, centre of mass and body
     velocities) are computed in JAX from the state before the step, as `mjx.step` leaves them;
@@ -109,18 +110,20 @@ class CEngine:
         self.model = model
         self.threads = threads or len(os.sched_getaffinity(0))
         self.models: list[mujoco.MjModel] = []
+        self.written: list[np.ndarray] | None = None  # the per-environment fields the models hold
         self.datas = [mujoco.MjData(model) for _ in range(self.threads)]
         self.pool = rollout.Rollout(nthread=self.threads)
         template = mujoco.MjData(model)
         self.template = np.empty(mujoco.mj_stateSize(model, _STATE))
         mujoco.mj_getState(model, template, self.template, _STATE)
         self.slices = _state_slices(model, _STATE)
+        self.lock = threading.Lock()  # JAX devices split from the CPU may call at once: one batch at a time
 
     def step(self, model: mjx.Model, data: mjx.Data) -> mjx.Data:
         """`mjx.step` in the C engine: one step of `data` under `model` (its per-environment fields)."""
         data = mjx.com_vel(model, mjx.com_pos(model, mjx.kinematics(model, data)))
         args = (data.time, data.qpos, data.qvel, data.act, data.qacc_warmstart, data.ctrl, data.xfrc_applied,
-                *(getattr(model, f) for f in PER_ENVIRONMENT))
+                model.hfield_data[:1], *(getattr(model, f) for f in PER_ENVIRONMENT))
         out = (jax.ShapeDtypeStruct(data.qpos.shape, data.qpos.dtype),
                jax.ShapeDtypeStruct(data.qvel.shape, data.qvel.dtype),
                jax.ShapeDtypeStruct(data.act.shape, data.act.dtype),
@@ -130,12 +133,19 @@ class CEngine:
         return data.replace(time=data.time + dt, qpos=qpos, qvel=qvel, act=act, sensordata=sensordata,
                             qacc_warmstart=((qvel - data.qvel) / dt).astype(data.qacc_warmstart.dtype))
 
-    def _host_step(self, time, qpos, qvel, act, warmstart, ctrl, xfrc, *fields):
+    def _host_step(self, *args):
+        with self.lock:
+            return self._step_batch(*args)
+
+    def _step_batch(self, time, qpos, qvel, act, warmstart, ctrl, xfrc, terrain, *fields):
         single = np.ndim(qpos) == 1  # called outside vmap
         if single:
-            time, qpos, qvel, act, warmstart, ctrl, xfrc, *fields = (np.asarray(a)[None] for a in
-                                                                    (time, qpos, qvel, act, warmstart, ctrl, xfrc, *fields))
+            time, qpos, qvel, act, warmstart, ctrl, xfrc, terrain, *fields = (
+                np.asarray(a)[None] for a in (time, qpos, qvel, act, warmstart, ctrl, xfrc, terrain, *fields))
         batch = qpos.shape[0]
+        if batch > 1 and np.shape(terrain)[0] == batch:  # a row of the height field per environment
+            raise ValueError("impl mujoco steps a batch on one terrain: a batch of several terrains (the robustness "
+                             "sweep's rough ground) runs with impl jax")
         models = self._models(batch, fields)
         state = np.repeat(self.template[None], batch, axis=0)
         for name, value in (("time", time), ("qpos", qpos), ("qvel", qvel), ("act", act)):
@@ -154,14 +164,20 @@ class CEngine:
         return tuple(r[0] for r in result) if single else result
 
     def _models(self, batch: int, fields: list[np.ndarray]) -> list[mujoco.MjModel]:
-        """One C model per environment holding its own `PER_ENVIRONMENT` values."""
+        """One C model per environment holding its own `PER_ENVIRONMENT` values (written only when
+        they change: within an episode they do not)."""
         while len(self.models) < batch:
             self.models.append(copy.deepcopy(self.model))
+            self.written = None
         models = self.models[:batch]
-        for name, value in zip(PER_ENVIRONMENT, fields):
-            value = np.asarray(value, np.float64)
+        values = [np.asarray(v, np.float64) for v in fields]
+        if self.written is not None and all(w.shape == v.shape and np.array_equal(w, v)
+                                            for w, v in zip(self.written, values)):
+            return models
+        for name, value in zip(PER_ENVIRONMENT, values):
             for i, m in enumerate(models):
                 getattr(m, name)[:] = value[i if value.shape[0] == batch else 0].reshape(getattr(m, name).shape)
+        self.written = values
         return models
 
 

@@ -68,3 +68,19 @@ def test_the_c_engine_repeats_itself_bit_for_bit(walks):
     """Threads share the batch out differently from call to call; each environment's step does
     not depend on which thread takes it, so training with the C engine reproduces."""
     np.testing.assert_array_equal(walks["mujoco"], walks["mujoco again"])
+
+
+def test_the_c_engine_refuses_a_batch_of_several_terrains_rather_than_walk_one(cassie):
+    """Per-environment height fields (the sweep's rough ground) are not written to its models, so
+    such a batch is refused; one terrain for all (what training and `eval` batches use) runs."""
+    from mjx_cascade.physics import CEngine
+
+    m, batch = cassie.model, 2
+    engine = CEngine(m, threads=1)
+    state = [np.zeros(batch), np.tile(cassie.model.qpos0, (batch, 1)), np.zeros((batch, m.nv)), np.zeros((batch, m.na)),
+             np.zeros((batch, m.nv)), np.zeros((batch, m.nu)), np.zeros((batch, m.nbody, 6))]
+    fields = [np.tile(m.body_mass, (batch, 1)), np.tile(m.body_ipos, (batch, 1, 1))]
+    qpos, *_ = engine._host_step(*state, np.zeros((1, 1)), *fields)  # one terrain: the model's
+    assert qpos.shape == (batch, m.nq) and np.all(np.isfinite(qpos))
+    with pytest.raises(ValueError, match="several terrains"):
+        engine._host_step(*state, np.zeros((batch, 1)), *fields)
