@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-VERSION = 4  # of the saved form (`to_dict`); `migrate` reads every earlier one
+VERSION = 5  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp", "mujoco")
@@ -124,6 +124,9 @@ class RegulatorConfig:
     # how fast the followed command moves towards the given one (regulators.rate_limit):
     # [m/s^2 for vx and vy, rad/s for the heading]; 0 follows at once
     command_rate: tuple[float, float]
+    # from standing, the followed command starts at rest (zero velocity, the present heading) and
+    # ramps to the first one at `command_rate` (Controller.reset); false: it starts at the first one
+    start_from_rest: bool
 
     def __post_init__(self) -> None:
         need(0 < self.blend_phase <= 1, "regulators.blend_phase must be in (0, 1]")
@@ -444,6 +447,9 @@ _V1_DEFAULTS = {
 # Settings added after version 2, with the value a saved config without them meant.
 _V2_DEFAULTS = {"train": {"eval_every": 0}}
 
+# Settings added after version 4, with the value a saved config without them meant.
+_V4_DEFAULTS = {"regulators": {"start_from_rest": False}}
+
 
 def migrate(data: dict) -> dict:
     """A saved config of any version, in the current form (without its `version`).
@@ -456,11 +462,12 @@ def migrate(data: dict) -> dict:
     measured over the stance foot with the regulation on is no longer supported. Versions 1 to 3
     may hold `policy.mirror_lateral` (version 1 without it meant false): right-stance steps now
     always see the state mirrored, so a config that did not mirror it is no longer supported.
+    Versions 1 to 4 started the followed command at the first one (`_V4_DEFAULTS`).
     """
     need(isinstance(data, dict), "a saved config must be a mapping")
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     version = data.pop("version", 1)
-    need(version in (1, 2, 3, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
+    need(version in (1, 2, 3, 4, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
     if version == 1:
         for section, defaults in _V1_DEFAULTS.items():
             data[section] = {**defaults, **data.get(section, {})}
@@ -477,6 +484,9 @@ def migrate(data: dict) -> dict:
         need(data.get("policy", {}).pop("mirror_lateral", version > 1) is True,
              "a saved config with policy.mirror_lateral false (right-stance steps seeing the state unmirrored) "
              "is no longer supported")
+    if version < 5:
+        for section, defaults in _V4_DEFAULTS.items():
+            data[section] = {**defaults, **data.get(section, {})}
     return data
 
 

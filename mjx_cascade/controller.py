@@ -108,13 +108,28 @@ class Controller:
         return jnp.where(cmd[1] == 0, coin, toward).astype(jnp.int32)
 
     def reset(self, params: Array, key: Array, obs: Obs, time: Array, cmd: Array) -> ControllerState:
-        """Standing at `time`, about to take the first step under command `cmd`."""
+        """Standing at `time`, about to take the first step under command `cmd`.
+
+        The first step is planned for the followed command (`start_command`); the foot that lifts
+        first is chosen for the given one, the way the robot is about to go.
+        """
         stance = self.first_stance(key, cmd)
+        followed = self.start_command(obs, cmd)
         zeros2 = jnp.zeros(2)
         return ControllerState(
-            stance=stance, step_start=time, alpha=self.plan(params, obs.q, stance, cmd, zeros2),
+            stance=stance, step_start=time, alpha=self.plan(params, obs.q, stance, followed, zeros2),
             v_sum=zeros2, v_count=jnp.zeros(()), v_avg=zeros2, v_prev=zeros2, beta=zeros2, ground=zeros2,
-            lifted=jnp.zeros((), bool), hold=obs.q[stance, self.hips], cmd=jnp.asarray(cmd, jnp.float32))
+            lifted=jnp.zeros((), bool), hold=obs.q[stance, self.hips], cmd=followed)
+
+    def start_command(self, obs: Obs, cmd: Array) -> Array:
+        """The command followed from standing (not in the paper): `cmd` itself, or with
+        `regulators.start_from_rest` zero velocity at the present heading, from which `follow` ramps
+        to `cmd` as after any change. A standing robot told to walk backwards and turn at once
+        fell in its second step (Digit, docs/results.md); a user's robot starts from rest."""
+        cmd = jnp.asarray(cmd, jnp.float32)
+        if not self.cfg.regulators.start_from_rest:
+            return cmd
+        return jnp.stack([jnp.zeros(()), jnp.zeros(()), obs.rpy[2].astype(jnp.float32)])
 
     # ------------------------------------------------------------------ one tick
     def tick(self, params: Array, c: ControllerState, obs: Obs, time: Array, cmd: Array

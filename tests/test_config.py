@@ -128,6 +128,13 @@ def test_migration_reads_a_version_1_config_as_it_meant():
         config.from_dict(unmirrored)
 
 
+def test_migration_reads_a_version_4_config_as_starting_at_the_first_command():
+    cfg = config.robot_config("digit").override(**{"regulators.start_from_rest": True})
+    old = {**config.to_dict(cfg), "version": 4}
+    del old["regulators"]["start_from_rest"]  # saved before the setting: the first command at once
+    assert config.from_dict(old) == cfg.override(**{"regulators.start_from_rest": False})
+
+
 def test_migration_reads_a_version_2_config_as_one_without_validation_checks():
     cfg = config.robot_config("cassie").override(**{"train.eval_every": 5})
     old = {**config.to_dict(cfg), "version": 2}

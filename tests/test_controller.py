@@ -225,3 +225,28 @@ def test_a_command_held_since_reset_is_followed_bit_for_bit_at_any_rate(standing
     np.testing.assert_array_equal(held, cmd)
     limit = 3 * env.dt * np.array([1.0, 1.0, 1.0])  # three ticks at 1 m/s^2 and 1 rad/s
     np.testing.assert_allclose(np.abs(followed([1.0, 1.0], -cmd) - cmd), np.minimum(limit, np.abs(2 * cmd)), atol=1e-6)
+
+
+def test_from_rest_the_followed_command_ramps_from_standing_at_the_rate(standing):
+    """With `regulators.start_from_rest` the controller starts out following zero velocity at the
+    heading it stands at, plans its first step for that, and ramps to the given command at
+    `command_rate`; the first foot still lifts for the given command."""
+    env, _, obs, _ = standing
+    cmd = jnp.array([-0.2, 0.3, 0.4], jnp.float32)
+    ctl = dataclasses.replace(env.controller, cfg=env.cfg.override(**{"regulators.start_from_rest": True,
+                                                                        "regulators.command_rate": [1.0, 0.5]}))
+
+    def ticks(n):
+        c = ctl.reset(_untrained(), jax.random.PRNGKey(0), obs, jnp.float32(0.0), cmd)
+        start = c
+        for _ in range(n):
+            c = ctl.follow(c, cmd)
+        return start, c
+
+    start, later = jax.jit(ticks, static_argnums=0)(10)
+    np.testing.assert_allclose(np.asarray(start.cmd), [0.0, 0.0, float(obs.rpy[2])], atol=1e-7)
+    step = 10 * env.dt * np.array([1.0, 1.0, 0.5])
+    np.testing.assert_allclose(np.asarray(later.cmd), np.asarray(start.cmd) + np.sign(cmd) * step, atol=1e-6)
+    at_rest = ctl.plan(_untrained(), obs.q, start.stance, start.cmd, jnp.zeros(2))
+    np.testing.assert_array_equal(np.asarray(start.alpha), np.asarray(at_rest))
+    assert int(start.stance) == int(env.controller.first_stance(jax.random.PRNGKey(0), cmd)) == gait.RIGHT
