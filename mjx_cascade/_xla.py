@@ -30,12 +30,16 @@ def configure() -> None:
 DEVICE_COUNT_FLAG = "--xla_force_host_platform_device_count"
 
 
+def cores() -> int:
+    """The CPU cores this process may use (all of them where the OS cannot say, as on macOS)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 def cpu_devices(value: str, population: int | None = None, limit: int | None = None) -> int:
     """`--cpu-devices`: a positive count, or `auto`: one device per core this process may use, as
     many as share `population` evenly and the robot allows (`limit`, its `max_cpu_devices`)."""
     if value == "auto":
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        cap = min(cores, limit or cores)
+        cap = min(cores(), limit or cores())
         return max(n for n in range(1, cap + 1) if population is None or population % n == 0)
     try:
         n = int(value)

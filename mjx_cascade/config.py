@@ -469,14 +469,12 @@ def migrate(data: dict) -> dict:
     version = data.pop("version", 1)
     need(version in (1, 2, 3, 4, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
     if version == 1:
-        for section, defaults in _V1_DEFAULTS.items():
-            data[section] = {**defaults, **data.get(section, {})}
+        _fill_defaults(data, _V1_DEFAULTS)
         need(data["regulators"].pop("slope_estimation", True) is True,
              "a saved config with regulators.slope_estimation false is no longer supported")
         data["regulators"]["height"] = data["rewards"].pop("height")
     if version < 3:
-        for section, defaults in _V2_DEFAULTS.items():
-            data[section] = {**defaults, **data.get(section, {})}
+        _fill_defaults(data, _V2_DEFAULTS)
         over_slope = data["regulators"].pop("height_over_slope", False)
         need(over_slope or data["regulators"].get("k_height", 0.0) == 0.0,
              "a saved config with regulators.height_over_slope false and k_height > 0 is no longer supported")
@@ -485,9 +483,14 @@ def migrate(data: dict) -> dict:
              "a saved config with policy.mirror_lateral false (right-stance steps seeing the state unmirrored) "
              "is no longer supported")
     if version < 5:
-        for section, defaults in _V4_DEFAULTS.items():
-            data[section] = {**defaults, **data.get(section, {})}
+        _fill_defaults(data, _V4_DEFAULTS)
     return data
+
+
+def _fill_defaults(data: dict, defaults: dict) -> None:
+    """Add each section's settings of `defaults` that the saved `data` lacks."""
+    for section, values in defaults.items():
+        data[section] = {**values, **data.get(section, {})}
 
 
 # ---------------------------------------------------------------------------------- typed building

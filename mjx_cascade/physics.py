@@ -14,7 +14,6 @@ import copy
 import functools
 import importlib.util
 import io
-import os
 import sys
 import threading
 from typing import Callable
@@ -28,6 +27,7 @@ from mujoco import rollout
 with contextlib.redirect_stdout(io.StringIO()):  # mjx prints "Failed to import warp" to stdout
     from mujoco import mjx
 
+from mjx_cascade import _xla
 from mjx_cascade.config import ConfigError, PhysicsConfig
 
 __all__ = ["mjx", "resolve_impl", "put_model", "make_data", "stepper", "CEngine"]
@@ -108,7 +108,7 @@ class CEngine:
 
     def __init__(self, model: mujoco.MjModel, threads: int | None = None):
         self.model = model
-        self.threads = threads or len(os.sched_getaffinity(0))
+        self.threads = threads or _xla.cores()
         self.models: list[mujoco.MjModel] = []
         self.written: list[np.ndarray] | None = None  # the per-environment fields the models hold
         self.datas = [mujoco.MjData(model) for _ in range(self.threads)]
