@@ -8,8 +8,10 @@ does (`train.drive`), and every `--check-every` generations runs the ES mean thr
 scenario (default: the robot's `val` profiles, `configs/sets.yaml`) on the same device
 (`evaluate.Runner`: the scenarios in one batch through the same simulator, compiled once, at the
 bar's time step `--dt`), judging it with `evaluate.check` (the walking bar, `judge.walking`)
-from the recorded trajectory alone, as `train.eval_every` does. It stops at the first check that
-passes every scenario, or at the limits, and writes
+from the recorded trajectory alone, as `train.eval_every` does, except that a check stops at the
+first tenth of its simulation in which a scenario fell (`stop_at_fall`: the scenarios not yet
+judged then count as not passed, and the verdict "not every scenario passed" is the same). It
+stops at the first check that passes every scenario, or at the limits, and writes
 
     {"device", "backend", "impl", "devices", "robot", "wall_clock_s", "compile_s", "training_s",
      "check_s", "physics_steps", "generations", "passed", "checks": [...], "config": {...}}
@@ -55,15 +57,17 @@ def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: flo
         if generation % check_every and generation < max_generations and elapsed() < max_seconds:
             return False
         t_check = time.perf_counter()
-        results = evaluate.check(checks_on, np.asarray(jax.device_get(state.mean)))
+        results = evaluate.check(checks_on, np.asarray(jax.device_get(state.mean)), stop_at_fall=True)
         books["check_s"] += time.perf_counter() - t_check
-        passed = all(r["passed"] for r in results.values())
+        passed = all(r["passed"] is True for r in results.values())
         books["checks"].append({"generation": generation, "wall_clock_s": elapsed(),
                                 "physics_steps": books["physics_steps"], "fitness_mean": rows[-1]["fitness_mean"],
-                                "passed": passed, "count": sum(r["passed"] for r in results.values()),
+                                "passed": passed, "count": sum(r["passed"] is True for r in results.values()),
                                 "scenarios": results})
         log(f"generation {generation}: {elapsed():.0f} s, fitness {rows[-1]['fitness_mean']:.3f}, "
-            f"{books['checks'][-1]['count']} of {len(results)} passed")
+            f"{books['checks'][-1]['count']} of {len(results)} passed, "
+            f"{sum(r['fell'] for r in results.values())} fell, "
+            f"{sum(r['passed'] is None for r in results.values())} stopped unjudged")
         return passed or elapsed() >= max_seconds
 
     state = train.drive(trainer, trainer.state, max_generations, check_every, on_call)

@@ -82,8 +82,10 @@ class Env:
         return EnvState(data=data, ctrl=ctrl)
 
     def step(self, params: Array, state: EnvState, cmd: Array, force: Array | None = None,
-             model: mjx.Model | None = None) -> tuple[EnvState, StepReport]:
-        """One physics step under the cascade controller; `force` [3] pushes the pelvis (world frame)."""
+             model: mjx.Model | None = None, live: Array | None = None) -> tuple[EnvState, StepReport]:
+        """One physics step under the cascade controller; `force` [3] pushes the pelvis (world frame).
+        `live` false: nothing reads the next state (the episode is done), which the physics may
+        then skip (`physics.stepper`)."""
         r, cfg = self.robot, self.cfg
         model = self.model if model is None else model
         obs = self.observe(state.data, model)
@@ -91,7 +93,7 @@ class Env:
         data = state.data.replace(ctrl=state.data.ctrl.at[r.actuator].set(pd.motor_command(u, r.gear, r.ctrl_low, r.ctrl_high)))
         if force is not None:
             data = data.replace(xfrc_applied=data.xfrc_applied.at[r.pelvis_body, :3].set(force))
-        data = self.physics_step(model, data)
+        data = self.physics_step(model, data, live)
         # scored against the command followed, which is all the controller is asked to do
         x = self.reward_inputs(obs, ctrl, u)
         terms = rewards.terms(x, cfg.rewards, cfg.regulators.height)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -97,24 +97,42 @@ class Runner:
         """The seconds the batch simulates: its longest scenario's, in whole records."""
         return self.chunks * self.every * self.env.dt
 
-    def __call__(self, params: np.ndarray, progress: Tick | None = None) -> list[dict]:
+    def __call__(self, params: np.ndarray, progress: Tick | None = None, stop_at_fall: bool = False) -> list[dict]:
         """The batch's trajectories under `params`, telling `progress` the seconds simulated as they
-        pass (`rollout.record_in_calls`: the same numbers with or without it)."""
+        pass (`rollout.record_in_calls`: the same numbers with or without it). With `stop_at_fall`
+        the simulation stops after the first tenth in which a scenario fell, and the trajectories
+        end there (shorter than their scenarios)."""
         env = self.env
         if params.shape[0] != self.num_params:
             raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
                               f"{self.num_params}")
         p = jnp.asarray(params)
         seconds = None if progress is None else lambda done, _: progress(done * self.every * env.dt)
+        until = _fall_watch(self.records) if stop_at_fall else None
         records = rollout.record_in_calls(lambda carry, first: self._advance(p, carry, first), self._start(p),
-                                          self.chunks, seconds)
+                                          self.chunks, seconds, until)
         qpos, qvel, ground, stance = (np.swapaxes(x, 0, 1) for x in records)
         t = self.times[self.every - 1::self.every]  # exact step counts x dt (MJX's float32 clock drifts)
         return [{
             "t": t[:n], "qpos": qpos[i, :n], "qvel": qvel[i, :n], "cmd": self.cmd[i, :n, -1],
             "force": self.force[i, :n, -1], "ground": ground[i, :n], "stance": stance[i, :n],
             "dt": np.float64(env.dt), **joint_layout(env.robot),
-        } for i, n in enumerate(self.records)]
+        } for i, n in enumerate(min(n, qpos.shape[1]) for n in self.records)]
+
+
+def _fall_watch(lengths: list[int]) -> Callable[[tuple], bool]:
+    """`until(records)` for `rollout.record_in_calls`: whether a scenario fell within its own
+    `lengths` (records) in a call's records `(qpos, qvel, ground, stance)` [records, B, ...]."""
+    done = 0
+
+    def until(records: tuple) -> bool:
+        nonlocal done
+        qpos, _, ground, _ = records
+        first, done = done, done + qpos.shape[0]
+        return any(judge.fallen(qpos[:max(0, n - first), i], ground[:max(0, n - first), i]).any()
+                   for i, n in enumerate(lengths))
+
+    return until
 
 
 def joint_layout(robot: Robot) -> dict:
@@ -133,13 +151,20 @@ def runners(cfg: Config, scenarios: Sequence[Scenario], model_path: str | None =
     return [Runner(cfg, batch, model_path) for batch in (plane, fields) if batch]
 
 
-def check(batches: Sequence[Runner], params: np.ndarray) -> dict[str, dict]:
+def check(batches: Sequence[Runner], params: np.ndarray, stop_at_fall: bool = False) -> dict[str, dict]:
     """The walking bar's verdict on one policy in every scenario of `batches` (`runners`), by name:
-    `{passed, fell, fall_time, segments}`, the segments only those judged."""
+    `{passed, fell, fall_time, segments}`, the segments only those judged.
+
+    With `stop_at_fall` a batch stops after the tenth of its simulation in which a scenario fell,
+    and every scenario that did not fall by then is left unjudged (`passed` None, no segments):
+    whether the policy passes them all is decided, at a fraction of the cost for one that falls."""
     results = {}
     for runner in batches:
-        for s, traj in zip(runner.scenarios, runner(params)):
+        for s, traj, n in zip(runner.scenarios, runner(params, stop_at_fall=stop_at_fall), runner.records):
             m = judge.walking(traj)
+            if len(traj["t"]) < n and not m["fell"]:
+                results[s.name] = {"passed": None, "fell": False, "fall_time": None, "segments": []}
+                continue
             results[s.name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
                                "segments": [seg for seg in m["segments"] if "within_bounds" in seg]}
     return results

@@ -79,12 +79,16 @@ def _mjx_impl(impl: str) -> str:
     return "jax" if impl == "mujoco" else impl
 
 
-Step = Callable[[mjx.Model, mjx.Data], mjx.Data]
+Step = Callable[..., mjx.Data]
 
 
 def stepper(model: mujoco.MjModel, impl: str) -> Step:
-    """One physics step of `impl` (resolved), `(model, data) -> data`, pure and vmappable."""
-    return CEngine(model).step if impl == "mujoco" else mjx.step
+    """One physics step of `impl` (resolved), `(model, data, live=None) -> data`, pure and
+    vmappable. `live` false says nothing reads the environment's next state (its episode is
+    done): the C engine then leaves it as it was, where MJX, vectorized, steps it anyway."""
+    if impl == "mujoco":
+        return CEngine(model).step
+    return lambda m, d, live=None: mjx.step(m, d)
 
 
 # the model fields an environment may hold its own value of (`randomization`)
@@ -96,89 +100,115 @@ _CONTROL = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED
 class CEngine:
     """Steps of MuJoCo's C engine for a batch of environments, as one JAX callback.
 
-    `step` reads the state, controls, pelvis forces and per-environment model fields
-    (`PER_ENVIRONMENT`; one terrain for the whole batch, the model's) of the whole vmapped batch, steps every environment once with
-    `mujoco.rollout` on `threads` threads, and returns the new state. The fields the observation
-    reads besides the state (positions and orientations of the bodies, centre of mass and body
-    velocities) are computed in JAX from the state before the step, as `mjx.step` leaves them;
-    the sensors come from the C step, which computes them there too. The solver's warm start
-    carries over as the step's mean acceleration. The C engine runs in float64 and MJX in
-    float32, so the two agree to the physics' tolerance, not bit for bit (tests/test_physics.py).
+    `step` packs each environment's state, controls, pelvis forces, per-environment model fields
+    (`PER_ENVIRONMENT`; one terrain for the whole batch, the model's) and whether it is live into
+    one vector (a callback's cost grows with its number of arrays), steps every live environment
+    of the vmapped batch once with `mujoco.rollout` on `threads` threads, and returns the new
+    state and sensors as one vector. The fields the observation reads besides the state
+    (positions and orientations of the bodies, centre of mass and body velocities) are computed
+    in JAX from the state before the step, as `mjx.step` leaves them; the sensors come from the C
+    step, which computes them there too. The solver's warm start carries over as the step's mean
+    acceleration. The C engine runs in float64 and MJX in float32, so the two agree to the
+    physics' tolerance, not bit for bit (tests/test_physics.py).
     """
 
     def __init__(self, model: mujoco.MjModel, threads: int | None = None):
         self.model = model
         self.threads = threads or _xla.cores()
         self.models: list[mujoco.MjModel] = []
-        self.written: list[np.ndarray] | None = None  # the per-environment fields the models hold
+        self.written: np.ndarray | None = None  # the per-environment fields the models hold
         self.datas = [mujoco.MjData(model) for _ in range(self.threads)]
         self.pool = rollout.Rollout(nthread=self.threads)
         template = mujoco.MjData(model)
         self.template = np.empty(mujoco.mj_stateSize(model, _STATE))
         mujoco.mj_getState(model, template, self.template, _STATE)
         self.slices = _state_slices(model, _STATE)
+        m = model
+        self.inputs = _layout(time=1, qpos=m.nq, qvel=m.nv, act=m.na, warmstart=m.nv, control=m.nu + 6 * m.nbody,
+                              sensordata=m.nsensordata, fields=sum(getattr(m, f).size for f in PER_ENVIRONMENT), live=1)
+        self.outputs = _layout(qpos=m.nq, qvel=m.nv, act=m.na, sensordata=m.nsensordata)
         self.lock = threading.Lock()  # JAX devices split from the CPU may call at once: one batch at a time
 
-    def step(self, model: mjx.Model, data: mjx.Data) -> mjx.Data:
-        """`mjx.step` in the C engine: one step of `data` under `model` (its per-environment fields)."""
+    def step(self, model: mjx.Model, data: mjx.Data, live: jax.Array | None = None) -> mjx.Data:
+        """`mjx.step` in the C engine: one step of `data` under `model` (its per-environment
+        fields); an environment that is not `live` keeps its state and sensors."""
         data = mjx.com_vel(model, mjx.com_pos(model, mjx.kinematics(model, data)))
-        args = (data.time, data.qpos, data.qvel, data.act, data.qacc_warmstart, data.ctrl, data.xfrc_applied,
-                model.hfield_data[:1], *(getattr(model, f) for f in PER_ENVIRONMENT))
-        out = (jax.ShapeDtypeStruct(data.qpos.shape, data.qpos.dtype),
-               jax.ShapeDtypeStruct(data.qvel.shape, data.qvel.dtype),
-               jax.ShapeDtypeStruct(data.act.shape, data.act.dtype),
-               jax.ShapeDtypeStruct(data.sensordata.shape, data.sensordata.dtype))
-        qpos, qvel, act, sensordata = jax.pure_callback(self._host_step, out, *args, vmap_method="expand_dims")
+        live = jnp.ones((), bool) if live is None else live
+        packed = jnp.concatenate([jnp.ravel(a).astype(jnp.float32) for a in (
+            data.time, data.qpos, data.qvel, data.act, data.qacc_warmstart, data.ctrl, data.xfrc_applied,
+            data.sensordata, *(getattr(model, f) for f in PER_ENVIRONMENT), live)])
+        out = jax.ShapeDtypeStruct((self.outputs["size"],), jnp.float32)
+        new = jax.pure_callback(self._host_step, out, packed, model.hfield_data[:1], vmap_method="expand_dims")
+        o = self.outputs
+        qpos, qvel, act, sensordata = (new[o[k]].astype(getattr(data, k).dtype)
+                                       for k in ("qpos", "qvel", "act", "sensordata"))
         dt = jnp.asarray(model.opt.timestep, data.time.dtype)
+        warmstart = jnp.where(live, (qvel - data.qvel) / dt, data.qacc_warmstart).astype(data.qacc_warmstart.dtype)
         return data.replace(time=data.time + dt, qpos=qpos, qvel=qvel, act=act, sensordata=sensordata,
-                            qacc_warmstart=((qvel - data.qvel) / dt).astype(data.qacc_warmstart.dtype))
+                            qacc_warmstart=warmstart)
 
-    def _host_step(self, *args):
+    def _host_step(self, packed: np.ndarray, terrain: np.ndarray) -> np.ndarray:
         with self.lock:
-            return self._step_batch(*args)
+            return self._step_batch(packed, terrain)
 
-    def _step_batch(self, time, qpos, qvel, act, warmstart, ctrl, xfrc, terrain, *fields):
-        single = np.ndim(qpos) == 1  # called outside vmap
-        if single:
-            time, qpos, qvel, act, warmstart, ctrl, xfrc, terrain, *fields = (
-                np.asarray(a)[None] for a in (time, qpos, qvel, act, warmstart, ctrl, xfrc, terrain, *fields))
-        batch = qpos.shape[0]
+    def _step_batch(self, packed: np.ndarray, terrain: np.ndarray) -> np.ndarray:
+        single = np.ndim(packed) == 1  # called outside vmap
+        packed = np.asarray(packed, np.float64).reshape(-1, self.inputs["size"])
+        batch, i, o = packed.shape[0], self.inputs, self.outputs
         if batch > 1 and np.shape(terrain)[0] == batch:  # a row of the height field per environment
             raise ValueError("impl mujoco steps a batch on one terrain: a batch of several terrains (the robustness "
                              "sweep's rough ground) runs with impl jax")
-        models = self._models(batch, fields)
-        state = np.repeat(self.template[None], batch, axis=0)
-        for name, value in (("time", time), ("qpos", qpos), ("qvel", qvel), ("act", act)):
-            state[:, self.slices[name]] = np.asarray(value, np.float64).reshape(batch, -1)
-        control = np.concatenate([np.asarray(ctrl, np.float64).reshape(batch, -1),
-                                  np.asarray(xfrc, np.float64).reshape(batch, -1)], axis=1)[:, None]
-        new = np.empty((batch, 1, state.shape[1]))
-        sensors = np.empty((batch, 1, self.model.nsensordata))
-        self.pool.rollout(models, self.datas, state, np.ascontiguousarray(control), control_spec=_CONTROL, nstep=1,
-                          skip_checks=True, initial_warmstart=np.ascontiguousarray(warmstart, np.float64),
-                          state=new, sensordata=sensors)
-        new, sensors = new[:, 0], sensors[:, 0]
-        result = tuple(np.asarray(new[:, self.slices[k]], np.asarray(v).dtype).reshape(np.shape(v))
-                       for k, v in (("qpos", qpos), ("qvel", qvel), ("act", act)))
-        result += (sensors.astype(np.asarray(qpos).dtype),)
-        return tuple(r[0] for r in result) if single else result
+        out = np.zeros((batch, o["size"]), np.float32)
+        for k in ("qpos", "qvel", "act", "sensordata"):  # what environments that are not live keep
+            out[:, o[k]] = packed[:, i[k]]
+        live = np.nonzero(packed[:, i["live"]][:, 0] > 0.5)[0]
+        if len(live):
+            state, sensors = self._rollout(packed[live], self._models(batch, packed[:, i["fields"]]), live)
+            for k in ("qpos", "qvel", "act"):
+                out[live, o[k]] = state[:, self.slices[k]]
+            out[live, o["sensordata"]] = sensors
+        return out[0] if single else out
 
-    def _models(self, batch: int, fields: list[np.ndarray]) -> list[mujoco.MjModel]:
+    def _rollout(self, packed: np.ndarray, models: list[mujoco.MjModel], which: np.ndarray):
+        """`(new states, sensors)` of the environments `which` (their rows `packed`), one step each."""
+        n, i = packed.shape[0], self.inputs
+        state = np.repeat(self.template[None], n, axis=0)
+        for k in ("time", "qpos", "qvel", "act"):
+            state[:, self.slices[k]] = packed[:, i[k]]
+        new = np.empty((n, 1, state.shape[1]))
+        sensors = np.empty((n, 1, self.model.nsensordata))
+        self.pool.rollout([models[j] for j in which], self.datas, state,
+                          np.ascontiguousarray(packed[:, None, i["control"]]), control_spec=_CONTROL, nstep=1,
+                          skip_checks=True, initial_warmstart=np.ascontiguousarray(packed[:, i["warmstart"]]),
+                          state=new, sensordata=sensors)
+        return new[:, 0], sensors[:, 0]
+
+    def _models(self, batch: int, fields: np.ndarray) -> list[mujoco.MjModel]:
         """One C model per environment holding its own `PER_ENVIRONMENT` values (written only when
         they change: within an episode they do not)."""
         while len(self.models) < batch:
             self.models.append(copy.deepcopy(self.model))
             self.written = None
         models = self.models[:batch]
-        values = [np.asarray(v, np.float64) for v in fields]
-        if self.written is not None and all(w.shape == v.shape and np.array_equal(w, v)
-                                            for w, v in zip(self.written, values)):
+        if self.written is not None and np.array_equal(self.written, fields):
             return models
-        for name, value in zip(PER_ENVIRONMENT, values):
-            for i, m in enumerate(models):
-                getattr(m, name)[:] = value[i if value.shape[0] == batch else 0].reshape(getattr(m, name).shape)
-        self.written = values
+        for m, row in zip(models, fields):
+            at = 0
+            for name in PER_ENVIRONMENT:
+                target = getattr(m, name)
+                target[:] = row[at:at + target.size].reshape(target.shape)
+                at += target.size
+        self.written = fields.copy()
         return models
+
+
+def _layout(**sizes: int) -> dict:
+    """Slices of consecutive parts of a packed vector, by name, and its `size`."""
+    out, at = {}, 0
+    for name, size in sizes.items():
+        out[name], at = slice(at, at + size), at + size
+    out["size"] = at
+    return out
 
 
 def _state_slices(model: mujoco.MjModel, spec: int) -> dict[str, slice]:

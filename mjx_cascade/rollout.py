@@ -95,16 +95,19 @@ def start(env: Env, params: Array, keys: Array, world: World) -> Carry:
     return reset(params, keys, sched.command_at(0), world.model, env.data_template(batch)), Books.start(batch)
 
 
-def _chunk(env: Env, params: Array, world: World, episode_steps: int, chunk: int) -> Callable[[Array, Carry], Carry]:
-    """`run_chunk(i, carry)`: the batch advanced through physics steps `i * chunk` to `(i + 1) * chunk - 1`."""
+def _chunk(env: Env, params: Array, world: World, episode_steps: int, chunk: int,
+           skip_done: bool = False) -> Callable[[Array, Carry], Carry]:
+    """`run_chunk(i, carry)`: the batch advanced through physics steps `i * chunk` to `(i + 1) * chunk - 1`;
+    with `skip_done`, environments whose episodes are done need not be stepped (`Env.step`'s `live`)."""
     sched = world.schedule
-    step = _over(env.step, (0 if params.ndim == 2 else None, 0, 0, 0 if sched.pushes else None, world.axes),
+    step = _over(env.step, (0 if params.ndim == 2 else None, 0, 0, 0 if sched.pushes else None, world.axes, 0),
                  sched.command.shape[0])
 
     def run_chunk(i: Array, carry: Carry) -> Carry:
         def physics(carry, n):
             state, books = carry
-            state, report = step(params, state, sched.command_at(n), sched.force_at(n), world.model)
+            live = ~books.done if skip_done else jnp.ones_like(books.done)
+            state, report = step(params, state, sched.command_at(n), sched.force_at(n), world.model, live)
             return (state, keep_books(books, report, env, episode_steps)), None
 
         return jax.lax.scan(physics, carry, i * chunk + jnp.arange(chunk))[0]
@@ -133,13 +136,14 @@ def simulate(env: Env, params: Array, keys: Array, world: World, episode_steps: 
 
     `params` is one flat policy vector `[D]` for the whole batch, or one per environment `[B, D]`;
     `keys` one reset key per environment `[B, 2]`, or one `[2]` that starts them all alike.
-    Episodes last `episode_steps` physics steps; their robots simulate on with the batch after.
+    Episodes last `episode_steps` physics steps; their robots simulate on with the batch after
+    where a trajectory is recorded, and need not without one (the C engine leaves them be).
     """
     carry = start(env, params, keys, world)
     if record is not None:
         (_, books), records = advance(env, params, carry, world, episode_steps, chunk, 0, chunks, record)
         return books, records
-    run_chunk = _chunk(env, params, world, episode_steps, chunk)
+    run_chunk = _chunk(env, params, world, episode_steps, chunk, skip_done=True)
 
     def more(c):
         return (c[0] < chunks) & ~jnp.all(c[2].done)
@@ -154,19 +158,22 @@ def per_call(chunks: int) -> int:
 
 
 def record_in_calls(advance_call: Callable[[Any, Array], tuple[Any, Any]], carry: Any, chunks: int,
-                    progress: Progress | None = None) -> Any:
+                    progress: Progress | None = None, until: Callable[[Any], bool] | None = None) -> Any:
     """The records `[chunks, ...]` (NumPy) of a recorded simulation run from the host as calls of one
     compiled `advance_call(carry, first) -> (carry, records [per_call(chunks), ...])` from chunk 0,
     telling `progress(records done, chunks)` after each call. The last call runs past `chunks` and
     its extra records are dropped: one program serves every call. Progress comes from the host, not
     from a callback inside the program, because JAX keeps no program with a host callback in its
-    persistent compilation cache."""
+    persistent compilation cache. Where `until(records of a call)` is true the recording stops
+    after that call, and holds fewer than `chunks` records."""
     n, parts = per_call(chunks), []
     for first in range(0, chunks, n):
         carry, records = advance_call(carry, jnp.int32(first))
         parts.append(jax.device_get(records))
         if progress:
             progress(min(first + n, chunks), chunks)
+        if until is not None and first + n < chunks and until(parts[-1]):
+            break
     return jax.tree.map(lambda *xs: np.concatenate(xs)[:chunks], *parts)
 
 

@@ -39,9 +39,31 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
     # no segment long enough to judge, so each passes exactly when the robot stays up
     checks = result["checks"][-1]["scenarios"]
     assert set(checks) == {"short", "other"}
-    for check in checks.values():
-        assert check["segments"] == [] and check["passed"] == (not check["fell"])
+    for check in checks.values():  # a check stops at a fall: the scenarios not fallen by then are unjudged
+        assert check["segments"] == [] and check["passed"] in ((not check["fell"]), None)
     json.dumps(result)  # what the script writes
+
+
+def test_a_check_stopped_at_a_fall_gives_the_full_checks_verdict_for_a_fraction_of_the_simulation():
+    """`stop_at_fall`: the simulation ends after the tenth in which a scenario fell; that fall is the
+    full run's, the trajectories are its prefix, and scenarios still standing are left unjudged."""
+    found = policies.load("cassie")
+    cfg = found.config.override(**{"physics.impl": "auto", "physics.dt": EVAL_DT, "episode.pool_size": 4})
+    kick = scenario.parse({"name": "kick", "duration": 1.0, "commands": [{"t": 0.0, "vx": 0.3, "vy": 0.0, "yaw": 0.0}],
+                                        "pushes": [{"t": 0.05, "duration": 0.1, "force": [0.0, 1500.0, 0.0]}]})
+    calm = scenario.parse({"name": "calm", "duration": 1.0, "commands": [{"t": 0.0, "vx": 0.3, "vy": 0.0, "yaw": 0.0}]})
+    runners = [evaluate.Runner(cfg, [kick, calm])]
+    full = evaluate.check(runners, found.params)
+    assert full["kick"]["fell"] and full["calm"]["passed"]
+    stopped = evaluate.check(runners, found.params, stop_at_fall=True)
+    assert stopped["kick"] == full["kick"]
+    assert stopped["calm"] == {"passed": None, "fell": False, "fall_time": None, "segments": []}
+    short, whole = runners[0](found.params, stop_at_fall=True), runners[0](found.params)
+    n = len(short[0]["t"])
+    assert n < len(whole[0]["t"]) and n >= full["kick"]["fall_time"] / evaluate.RECORD_PERIOD
+    np.testing.assert_array_equal(short[1]["qpos"], whole[1]["qpos"][:n])
+    # with no fall it runs to the end and judges everything, as the full check
+    assert evaluate.check([evaluate.Runner(cfg, [calm])], found.params, stop_at_fall=True)["calm"] == full["calm"]
 
 
 def test_runner_takes_the_policy_as_an_argument(cassie_cfg):

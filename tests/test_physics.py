@@ -70,17 +70,45 @@ def test_the_c_engine_repeats_itself_bit_for_bit(walks):
     np.testing.assert_array_equal(walks["mujoco"], walks["mujoco again"])
 
 
+def _packed(engine, batch: int, live) -> np.ndarray:
+    """A batch of `CEngine._host_step`'s packed inputs: each environment standing at the model's
+    qpos0, under the model's own fields, `live` as given."""
+    m = engine.model
+    parts = {"qpos": np.tile(m.qpos0, (batch, 1)),
+             "fields": np.tile(np.concatenate([m.body_mass.ravel(), m.body_ipos.ravel()]), (batch, 1)),
+             "live": np.asarray(live, np.float32)[:, None]}
+    packed = np.zeros((batch, engine.inputs["size"]), np.float32)
+    for name, value in parts.items():
+        packed[:, engine.inputs[name]] = value
+    return packed
+
+
 def test_the_c_engine_refuses_a_batch_of_several_terrains_rather_than_walk_one(cassie):
     """Per-environment height fields (the sweep's rough ground) are not written to its models, so
     such a batch is refused; one terrain for all (what training and `eval` batches use) runs."""
     from mjx_cascade.physics import CEngine
 
-    m, batch = cassie.model, 2
-    engine = CEngine(m, threads=1)
-    state = [np.zeros(batch), np.tile(cassie.model.qpos0, (batch, 1)), np.zeros((batch, m.nv)), np.zeros((batch, m.na)),
-             np.zeros((batch, m.nv)), np.zeros((batch, m.nu)), np.zeros((batch, m.nbody, 6))]
-    fields = [np.tile(m.body_mass, (batch, 1)), np.tile(m.body_ipos, (batch, 1, 1))]
-    qpos, *_ = engine._host_step(*state, np.zeros((1, 1)), *fields)  # one terrain: the model's
-    assert qpos.shape == (batch, m.nq) and np.all(np.isfinite(qpos))
+    engine = CEngine(cassie.model, threads=1)
+    packed = _packed(engine, 2, [1, 1])
+    out = engine._host_step(packed, np.zeros((1, 1)))  # one terrain: the model's
+    assert out.shape == (2, engine.outputs["size"]) and np.all(np.isfinite(out))
     with pytest.raises(ValueError, match="several terrains"):
-        engine._host_step(*state, np.zeros((batch, 1)), *fields)
+        engine._host_step(packed, np.zeros((2, 1)))
+
+
+def test_the_c_engine_steps_only_live_environments_and_each_as_if_alone(cassie):
+    """An environment whose episode is done keeps its state and sensors (training skips it), and
+    a live one's step does not depend on which others share the batch."""
+    from mjx_cascade.physics import CEngine
+
+    engine = CEngine(cassie.model, threads=2)
+    i, o = engine.inputs, engine.outputs
+    packed = _packed(engine, 3, [1, 0, 1])
+    packed[:, i["qvel"]] = np.random.default_rng(0).normal(0.0, 0.3, (3, cassie.model.nv))
+    packed[:, i["sensordata"]] = 7.0
+    out = engine._host_step(packed, np.zeros((1, 0)))
+    for k in ("qpos", "qvel", "sensordata"):
+        np.testing.assert_array_equal(out[1, o[k]], packed[1, i[k]])
+    assert not np.allclose(out[0, o["qvel"]], packed[0, i["qvel"]]) and not np.allclose(out[0, o["sensordata"]], 7.0)
+    alone = engine._host_step(packed[2:], np.zeros((1, 0)))
+    np.testing.assert_array_equal(out[2], alone[0])
