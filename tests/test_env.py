@@ -96,8 +96,8 @@ class FaultyEnv(Env):
 
     marker = 0.25
 
-    def step(self, params, state, cmd, force=None, model=None):
-        state, report = super().step(params, state, cmd, force, model)
+    def step(self, params, state, cmd, force=None, model=None, live=None):
+        state, report = super().step(params, state, cmd, force, model, live)
         poison = (jnp.abs(state.data.time - 20 * self.dt) < 0.5 * self.dt) & (jnp.abs(params[0] - self.marker) < 1e-6)
         qvel = jnp.where(poison, jnp.nan, state.data.qvel)  # (jit may round the marker's last bit)
         return state.replace(data=state.data.replace(qvel=qvel)), report
