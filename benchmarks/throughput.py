@@ -11,6 +11,9 @@ every batch size:
 - `physics_steps_per_s`: the backend's step alone (`Env.physics_step`: `mjx.step` or the C
   engine's) on the same model, time step, solver and batch, zero control;
 - `peak_memory_bytes`: the device's peak allocation (where JAX reports it).
+For the C engine also `engine_host_steps_per_s`: its host side alone (unpacking, the threaded C
+steps, packing), called from Python on the same batch, so that `physics_steps_per_s` against it
+is the cost of JAX calling back to the host.
 Plus `cpu_mujoco_steps_per_s`: MuJoCo's C `rollout` with one environment per CPU core (the
 paper's kind of setup), same model and time step, and per row `controller_vs_cpu_mujoco`, the
 trainer's rate as a share of it. Each figure is the best of three timed runs after a compiling
@@ -76,6 +79,27 @@ def physics_rate(env, batch: int, steps: int) -> float:
     return batch * steps / best_of(lambda: run(data))
 
 
+def engine_host_rate(engine: physics.CEngine, env, batch: int, steps: int) -> float:
+    """The C engine's host step alone: `steps` steps of a batch standing from the balanced pool
+    under zero control, each step's output fed back as the next one's input."""
+    i, o, m = engine.inputs, engine.outputs, engine.model
+    packed = np.zeros((batch, i["size"]), np.float32)
+    packed[:, i["qpos"]], packed[:, i["qvel"]] = np.asarray(env.pool_qpos[0]), np.asarray(env.pool_qvel[0])
+    packed[:, i["fields"]] = np.concatenate([getattr(m, f).ravel() for f in physics.PER_ENVIRONMENT])
+    packed[:, i["live"]] = 1.0
+    terrain = np.zeros((1, 0), np.float32)
+
+    def run():
+        x = packed.copy()
+        for _ in range(steps):
+            out = engine._host_step(x, terrain)
+            for k in ("qpos", "qvel", "act", "sensordata"):
+                x[:, i[k]] = out[:, o[k]]
+        return x
+
+    return batch * steps / best_of(run)
+
+
 def cpu_mujoco_rate(env, steps: int) -> tuple[float, int]:
     model = env.robot.model
     cores = os.cpu_count() or 1
@@ -133,6 +157,7 @@ def main(argv: list[str] | None = None) -> int:
             engine = getattr(env.physics_step, "__self__", None)  # the C engine's, with its threads
             if engine is not None:
                 row["engine_threads"] = engine.threads
+                row["engine_host_steps_per_s"] = engine_host_rate(engine, env, batch, args.steps)
             result["rows"].append(row)
             print(json.dumps(row), file=sys.stderr, flush=True)
     result["cpu_mujoco_steps_per_s"], result["cpu_cores"] = cpu_mujoco_rate(env, max(args.steps, 1000))

@@ -16,7 +16,7 @@ import importlib.util
 import io
 import sys
 import threading
-from typing import Callable
+from typing import Callable, NamedTuple, Sequence
 
 import jax
 import jax.numpy as jnp
@@ -30,7 +30,7 @@ with contextlib.redirect_stdout(io.StringIO()):  # mjx prints "Failed to import 
 from mjx_cascade import _xla
 from mjx_cascade.config import ConfigError, PhysicsConfig
 
-__all__ = ["mjx", "resolve_impl", "put_model", "make_data", "stepper", "CEngine"]
+__all__ = ["mjx", "resolve_impl", "put_model", "make_data", "stepper", "add_engine_sensors", "CEngine"]
 
 
 def warp_available() -> bool:
@@ -96,6 +96,73 @@ PER_ENVIRONMENT = ("body_mass", "body_ipos")
 _STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 _CONTROL = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED
 
+# The sensors through which the C engine reports the kinematics the observation reads: for each
+# body given to `add_engine_sensors`, (name, sensor type, object type), 3 numbers each.
+_S, _O = mujoco.mjtSensor, mujoco.mjtObj
+ENGINE_SENSORS = (
+    ("xpos", _S.mjSENS_FRAMEPOS, _O.mjOBJ_XBODY),
+    ("xaxis", _S.mjSENS_FRAMEXAXIS, _O.mjOBJ_XBODY),  # the columns of xmat
+    ("yaxis", _S.mjSENS_FRAMEYAXIS, _O.mjOBJ_XBODY),
+    ("zaxis", _S.mjSENS_FRAMEZAXIS, _O.mjOBJ_XBODY),
+    ("subtree_com", _S.mjSENS_SUBTREECOM, _O.mjOBJ_BODY),
+    ("angvel", _S.mjSENS_FRAMEANGVEL, _O.mjOBJ_XBODY),  # world frame, as cvel's rotational part
+    ("linvel", _S.mjSENS_FRAMELINVEL, _O.mjOBJ_XBODY),  # of the body frame's origin, world frame
+)
+_ENGINE_PREFIX = "engine:"
+
+
+def add_engine_sensors(spec: mujoco.MjSpec, bodies: Sequence[str]) -> None:
+    """Sensors (`ENGINE_SENSORS`) reporting, from the C engine's step, the kinematics that the
+    observation reads of `bodies` (their positions, orientations, subtree centres of mass and
+    velocities), so that JAX need not recompute them; `bodies` holds the root of each one's tree.
+    They read the state before the step, as `mjx.step` leaves these fields, and alter no physics."""
+    for body in bodies:
+        for name, kind, objtype in ENGINE_SENSORS:
+            spec.add_sensor(name=f"{_ENGINE_PREFIX}{name}:{body}", type=kind, objtype=objtype, objname=body)
+
+
+class _Kinematics(NamedTuple):
+    """Where a model's engine sensors sit in its sensordata: `bodies` [K] ids, and per
+    `ENGINE_SENSORS` name the sensordata indices [K, 3]; `root` [K] each body's root's row in `bodies`."""
+
+    bodies: np.ndarray
+    root: np.ndarray
+    at: dict
+
+
+def _engine_kinematics(model: mujoco.MjModel) -> _Kinematics:
+    found: dict[int, dict[str, np.ndarray]] = {}
+    for i in range(model.nsensor):
+        name = model.sensor(i).name
+        if name.startswith(_ENGINE_PREFIX):
+            field = name[len(_ENGINE_PREFIX):].split(":")[0]
+            adr = model.sensor_adr[i]
+            found.setdefault(int(model.sensor_objid[i]), {})[field] = np.arange(adr, adr + 3)
+    bodies = np.array(sorted(found), dtype=np.int64)
+    if not len(bodies) or any(len(found[b]) != len(ENGINE_SENSORS) for b in bodies):
+        raise ValueError("impl mujoco needs the model's engine sensors (physics.add_engine_sensors; "
+                         "robots.build adds them when the physics config says impl mujoco)")
+    row = {int(b): k for k, b in enumerate(bodies)}
+    roots = [int(model.body_rootid[b]) for b in bodies]
+    if any(r not in row for r in roots):
+        raise ValueError("the engine sensors must cover the root of every body they cover (its cvel is about "
+                         "the root's subtree centre of mass)")
+    return _Kinematics(bodies, np.array([row[r] for r in roots]),
+                       {name: np.stack([found[int(b)][name] for b in bodies]) for name, *_ in ENGINE_SENSORS})
+
+
+def _with_kinematics(data: mjx.Data, sensordata: jax.Array, k: _Kinematics) -> mjx.Data:
+    """`data` with the engine-sensed bodies' xpos, xmat, subtree_com and cvel read from `sensordata`."""
+    read = {name: sensordata[idx] for name, idx in k.at.items()}
+    xmat = jnp.stack([read["xaxis"], read["yaxis"], read["zaxis"]], axis=-1)
+    w, origin = read["angvel"], read["xpos"]
+    # cvel's linear part is the velocity at the root's subtree centre of mass, seen as moving with the body
+    at_com = read["linvel"] - jnp.cross(w, origin - read["subtree_com"][k.root])
+    b = k.bodies
+    return data.replace(xpos=data.xpos.at[b].set(origin), xmat=data.xmat.at[b].set(xmat),
+                        subtree_com=data.subtree_com.at[b].set(read["subtree_com"]),
+                        cvel=data.cvel.at[b].set(jnp.concatenate([w, at_com], axis=-1)))
+
 
 class CEngine:
     """Steps of MuJoCo's C engine for a batch of environments, as one JAX callback.
@@ -105,9 +172,10 @@ class CEngine:
     one vector (a callback's cost grows with its number of arrays), steps every live environment
     of the vmapped batch once with `mujoco.rollout` on `threads` threads, and returns the new
     state and sensors as one vector. The fields the observation reads besides the state
-    (positions and orientations of the bodies, centre of mass and body velocities) are computed
-    in JAX from the state before the step, as `mjx.step` leaves them; the sensors come from the C
-    step, which computes them there too. The solver's warm start carries over as the step's mean
+    (positions, orientations, subtree centres of mass and velocities of the bodies it names)
+    come from the model's engine sensors (`add_engine_sensors`), which the C step computes of
+    the state before the step, as `mjx.step` leaves them; the other derived fields of the
+    returned data are stale. The solver's warm start carries over as the step's mean
     acceleration. The C engine runs in float64 and MJX in float32, so the two agree to the
     physics' tolerance, not bit for bit (tests/test_physics.py).
     """
@@ -123,6 +191,7 @@ class CEngine:
         self.template = np.empty(mujoco.mj_stateSize(model, _STATE))
         mujoco.mj_getState(model, template, self.template, _STATE)
         self.slices = _state_slices(model, _STATE)
+        self.kinematics = _engine_kinematics(model)
         m = model
         self.inputs = _layout(time=1, qpos=m.nq, qvel=m.nv, act=m.na, warmstart=m.nv, control=m.nu + 6 * m.nbody,
                               sensordata=m.nsensordata, fields=sum(getattr(m, f).size for f in PER_ENVIRONMENT), live=1)
@@ -132,30 +201,32 @@ class CEngine:
     def step(self, model: mjx.Model, data: mjx.Data, live: jax.Array | None = None) -> mjx.Data:
         """`mjx.step` in the C engine: one step of `data` under `model` (its per-environment
         fields); an environment that is not `live` keeps its state and sensors."""
-        data = mjx.com_vel(model, mjx.com_pos(model, mjx.kinematics(model, data)))
         live = jnp.ones((), bool) if live is None else live
         packed = jnp.concatenate([jnp.ravel(a).astype(jnp.float32) for a in (
             data.time, data.qpos, data.qvel, data.act, data.qacc_warmstart, data.ctrl, data.xfrc_applied,
             data.sensordata, *(getattr(model, f) for f in PER_ENVIRONMENT), live)])
         out = jax.ShapeDtypeStruct((self.outputs["size"],), jnp.float32)
-        new = jax.pure_callback(self._host_step, out, packed, model.hfield_data[:1], vmap_method="expand_dims")
+        # the height field goes along only to refuse a batch of several (an array more costs ~20 us a step)
+        terrain = (model.hfield_data[:1],) if self.model.nhfield else ()
+        new = jax.pure_callback(self._host_step, out, packed, *terrain, vmap_method="expand_dims")
         o = self.outputs
         qpos, qvel, act, sensordata = (new[o[k]].astype(getattr(data, k).dtype)
                                        for k in ("qpos", "qvel", "act", "sensordata"))
         dt = jnp.asarray(model.opt.timestep, data.time.dtype)
         warmstart = jnp.where(live, (qvel - data.qvel) / dt, data.qacc_warmstart).astype(data.qacc_warmstart.dtype)
-        return data.replace(time=data.time + dt, qpos=qpos, qvel=qvel, act=act, sensordata=sensordata,
+        data = data.replace(time=data.time + dt, qpos=qpos, qvel=qvel, act=act, sensordata=sensordata,
                             qacc_warmstart=warmstart)
+        return _with_kinematics(data, sensordata, self.kinematics)
 
-    def _host_step(self, packed: np.ndarray, terrain: np.ndarray) -> np.ndarray:
+    def _host_step(self, packed: np.ndarray, terrain: np.ndarray | None = None) -> np.ndarray:
         with self.lock:
             return self._step_batch(packed, terrain)
 
-    def _step_batch(self, packed: np.ndarray, terrain: np.ndarray) -> np.ndarray:
+    def _step_batch(self, packed: np.ndarray, terrain: np.ndarray | None) -> np.ndarray:
         single = np.ndim(packed) == 1  # called outside vmap
         packed = np.asarray(packed, np.float64).reshape(-1, self.inputs["size"])
         batch, i, o = packed.shape[0], self.inputs, self.outputs
-        if batch > 1 and np.shape(terrain)[0] == batch:  # a row of the height field per environment
+        if terrain is not None and batch > 1 and np.shape(terrain)[0] == batch:  # a height field per environment
             raise ValueError("impl mujoco steps a batch on one terrain: a batch of several terrains (the robustness "
                              "sweep's rough ground) runs with impl jax")
         out = np.zeros((batch, o["size"]), np.float32)

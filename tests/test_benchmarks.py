@@ -22,11 +22,28 @@ def _short_scenarios():
     return [scenario.load(DATA / "short.json"), scenario.load(DATA / "other.json")]
 
 
-def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, tmp_path):
+def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, monkeypatch, tmp_path):
     ttw = benchmark_script("time_to_walk")
     cfg = cassie_cfg.override(**SMOKE)
+    assert cfg.physics.dt > EVAL_DT  # so each check screens at the training step first
+    stages, check = [], evaluate.check
+
+    def recorded(runners, params, stop_at_fall=False):
+        results = check(runners, params, stop_at_fall)
+        stages.append((runners[0].env.dt, all(r["passed"] is True for r in results.values())))
+        return results
+
+    monkeypatch.setattr(evaluate, "check", recorded)
     result = ttw.time_to_walk(cfg, _short_scenarios(), dt=EVAL_DT, check_every=2, max_generations=3,
                               max_seconds=600.0, log=lambda m: None)
+    # each check screens at the training step, and runs the bar's step only after a screen passed all
+    assert result["screen_dt"] == cfg.physics.dt and stages[0][0] == cfg.physics.dt
+    for (dt, passed), after in zip(stages, stages[1:]):
+        assert after[0] == (EVAL_DT if dt == cfg.physics.dt and passed else cfg.physics.dt)
+    deciding = ["bar" if dt == EVAL_DT else "screen" for dt, passed in stages if dt == EVAL_DT or not passed]
+    assert [c["stage"] for c in result["checks"]] == deciding
+    # 0.3 s from a balanced stand: the untrained mean stays up, so the bar ran and decided the run
+    assert result["checks"][-1]["stage"] == "bar" and stages[-1][0] == EVAL_DT
     # checks at generation 2 and at the limit (3); stops early only on a pass
     assert [c["generation"] for c in result["checks"]] in ([2], [2, 3])
     assert result["generations"] == result["checks"][-1]["generation"]
@@ -76,24 +93,47 @@ def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
     assert a["qpos"].shape == b["qpos"].shape and not np.allclose(a["qpos"], b["qpos"])
 
 
-def test_time_to_walk_checks_the_robots_val_profiles_by_default(monkeypatch, tmp_path):
-    """With no --scenario the stopping check is the val set that chooses checkpoints."""
-    ttw = benchmark_script("time_to_walk")
+def _stand_in_time_to_walk(monkeypatch, ttw) -> dict:
+    """`ttw.main` with its training replaced: what it would train and check, and the CPU split it
+    asks for as on a fresh process, go into the returned dict."""
     seen = {}
 
     def fake(cfg, scenarios, dt, *args, **kwargs):
-        seen["names"] = [s.name for s in scenarios]
+        seen.update(cfg=cfg, names=[s.name for s in scenarios], dt=dt)
         return {k: 0 for k in ("device", "impl", "devices", "wall_clock_s", "compile_s", "training_s", "check_s",
                                "physics_steps", "generations", "passed")}
 
     monkeypatch.setattr(ttw, "time_to_walk", fake)
-    # as on a fresh process: the script splits the CPU as `mjx-cascade train` would (here only recorded)
     monkeypatch.setattr(ttw._xla, "cpu_split_given", lambda: False)
     monkeypatch.setattr(ttw._xla, "cpu_backend_started", lambda: False)
     monkeypatch.setattr(ttw._xla, "split_cpu", lambda n: seen.setdefault("split", n))
+    return seen
+
+
+def test_time_to_walk_checks_the_robots_val_profiles_by_default(monkeypatch, tmp_path):
+    """With no --scenario the stopping check is the val set that chooses checkpoints; the CPU is
+    split as `mjx-cascade train` splits it."""
+    ttw = benchmark_script("time_to_walk")
+    seen = _stand_in_time_to_walk(monkeypatch, ttw)
     assert ttw.main(["--robot", "cassie", "--out", str(tmp_path / "t.json")]) == 0
     assert seen["names"] == [s.name for s in profiles.resolve("cassie", "val")] and len(seen["names"]) == 20
     assert seen["split"] == train.cpu_device_count(config.robot_config("cassie"))
+    assert json.loads((tmp_path / "t.json").read_text())["command"].endswith("--robot cassie --out " + str(tmp_path / "t.json"))
+
+
+def test_time_to_walk_trains_the_cpu_recipe_from_its_config_file(monkeypatch, tmp_path):
+    """`--config configs/cassie_cpu.yaml`: Cassie's config in the C engine at a 2-ms step, judged on
+    Cassie's val profiles at the bar's step, on one JAX device (the engine threads each step itself)."""
+    ttw = benchmark_script("time_to_walk")
+    seen = _stand_in_time_to_walk(monkeypatch, ttw)
+    assert ttw.main(["--config", str(ROOT / "configs" / "cassie_cpu.yaml"), "--out", str(tmp_path / "t.json")]) == 0
+    cfg = seen["cfg"]
+    assert (cfg.robot, cfg.physics.impl, cfg.physics.dt, seen["dt"], seen["split"]) == ("cassie", "mujoco", 0.002, 0.0005, 1)
+    # everything else is the shipped Cassie config
+    shipped = config.to_dict(config.robot_config("cassie"))
+    shipped["physics"].update(impl="mujoco", dt=0.002)
+    assert config.to_dict(cfg) == shipped
+    assert seen["names"] == [s.name for s in profiles.resolve("cassie", "val")]
 
 
 def test_the_walking_benchmark_writes_the_bars_verdicts_with_their_provenance(tmp_path, capsys):
@@ -132,3 +172,22 @@ def test_throughput_reports_each_rate_it_measured_with_its_provenance(tmp_path, 
     assert 0 < row["controller_steps_per_s"] and 0 < row["physics_steps_per_s"]
     assert result["cpu_mujoco_steps_per_s"] > 0 and result["cpu_cores"] == 2
     assert row["controller_vs_cpu_mujoco"] == row["controller_steps_per_s"] / result["cpu_mujoco_steps_per_s"]
+
+
+def test_the_c_engines_host_rate_is_its_host_step_timed(cassie_cfg):
+    """`engine_host_rate` steps the engine's host side from the standing pool, each output fed back:
+    the state moves, and the rate is the batch's steps over the measured time."""
+    import types
+
+    from mjx_cascade import physics, robots
+
+    tp = benchmark_script("throughput")
+    robot = robots.build(robots.get("cassie"), cassie_cfg.override(**{"physics.impl": "mujoco"}).physics)
+    engine = physics.CEngine(robot.model, threads=1)
+    calls = []
+    host_step = engine._host_step
+    engine._host_step = lambda packed, terrain=None: calls.append(packed[:, engine.inputs["qpos"]].copy()) or host_step(packed, terrain)
+    env = types.SimpleNamespace(pool_qpos=robot.model.qpos0[None], pool_qvel=np.zeros((1, robot.model.nv)))
+    assert tp.engine_host_rate(engine, env, batch=2, steps=3) > 0
+    assert len(calls) == 3 * 4  # a warm-up and three timed runs of three steps
+    assert not np.array_equal(calls[0], calls[2])  # each step starts where the last one ended

@@ -6,7 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from mjx_cascade import policies, randomization
+from mjx_cascade import policies, randomization, robots
 from mjx_cascade.env import Env
 
 # compiles the controller's step twice (MJX and the C engine's callback), about 45 s
@@ -37,12 +37,23 @@ def _walk(env: Env, params: np.ndarray, push: np.ndarray, runs: int = 1) -> list
 
 
 @pytest.fixture(scope="module")
-def walks(cassie, cassie_cfg, cassie_pool, cassie_network):
+def c_cfg(cassie_cfg):
+    return cassie_cfg.override(**{"physics.impl": "mujoco"})
+
+
+@pytest.fixture(scope="module")
+def c_cassie(c_cfg):
+    """Cassie compiled for the C engine: the same model with its engine sensors."""
+    return robots.build(robots.get("cassie"), c_cfg.physics)
+
+
+@pytest.fixture(scope="module")
+def walks(cassie, c_cassie, cassie_cfg, cassie_pool, cassie_network):
     params = policies.load("cassie").params
     push = np.array([[60.0, 0.0, 0.0], [0.0, -60.0, 0.0], [0.0, 0.0, 0.0]])
     out = {}
-    for impl, runs in (("jax", 1), ("mujoco", 2)):
-        env = Env(cassie, cassie_cfg.override(**{"physics.impl": impl}), cassie_pool, cassie_network.apply)
+    for impl, robot, runs in (("jax", cassie, 1), ("mujoco", c_cassie, 2)):
+        env = Env(robot, cassie_cfg.override(**{"physics.impl": impl}), cassie_pool, cassie_network.apply)
         first, *again = _walk(env, params, push, runs)
         out[impl] = first
         out.update({f"{impl} again": a for a in again})
@@ -83,12 +94,12 @@ def _packed(engine, batch: int, live) -> np.ndarray:
     return packed
 
 
-def test_the_c_engine_refuses_a_batch_of_several_terrains_rather_than_walk_one(cassie):
+def test_the_c_engine_refuses_a_batch_of_several_terrains_rather_than_walk_one(c_cassie):
     """Per-environment height fields (the sweep's rough ground) are not written to its models, so
     such a batch is refused; one terrain for all (what training and `eval` batches use) runs."""
     from mjx_cascade.physics import CEngine
 
-    engine = CEngine(cassie.model, threads=1)
+    engine = CEngine(c_cassie.model, threads=1)
     packed = _packed(engine, 2, [1, 1])
     out = engine._host_step(packed, np.zeros((1, 1)))  # one terrain: the model's
     assert out.shape == (2, engine.outputs["size"]) and np.all(np.isfinite(out))
@@ -96,15 +107,15 @@ def test_the_c_engine_refuses_a_batch_of_several_terrains_rather_than_walk_one(c
         engine._host_step(packed, np.zeros((2, 1)))
 
 
-def test_the_c_engine_steps_only_live_environments_and_each_as_if_alone(cassie):
+def test_the_c_engine_steps_only_live_environments_and_each_as_if_alone(c_cassie):
     """An environment whose episode is done keeps its state and sensors (training skips it), and
     a live one's step does not depend on which others share the batch."""
     from mjx_cascade.physics import CEngine
 
-    engine = CEngine(cassie.model, threads=2)
+    engine = CEngine(c_cassie.model, threads=2)
     i, o = engine.inputs, engine.outputs
     packed = _packed(engine, 3, [1, 0, 1])
-    packed[:, i["qvel"]] = np.random.default_rng(0).normal(0.0, 0.3, (3, cassie.model.nv))
+    packed[:, i["qvel"]] = np.random.default_rng(0).normal(0.0, 0.3, (3, c_cassie.model.nv))
     packed[:, i["sensordata"]] = 7.0
     out = engine._host_step(packed, np.zeros((1, 0)))
     for k in ("qpos", "qvel", "sensordata"):
@@ -112,3 +123,42 @@ def test_the_c_engine_steps_only_live_environments_and_each_as_if_alone(cassie):
     assert not np.allclose(out[0, o["qvel"]], packed[0, i["qvel"]]) and not np.allclose(out[0, o["sensordata"]], 7.0)
     alone = engine._host_step(packed[2:], np.zeros((1, 0)))
     np.testing.assert_array_equal(out[2], alone[0])
+
+
+def test_the_c_engine_reports_the_kinematics_mujoco_computes_before_its_step(c_cassie, cassie):
+    """The feet's and pelvis's positions, orientations, subtree centres of mass and velocities that
+    the C engine's step returns are MuJoCo's own of the state before the step (what `mjx.step`
+    leaves), in a moving, tilted pose: the observation reads them instead of recomputing them."""
+    import mujoco
+
+    from mjx_cascade.physics import CEngine, mjx
+
+    m = c_cassie.model
+    assert m.nsensordata > cassie.model.nsensordata  # other impls' models carry no engine sensors
+    engine = CEngine(m, threads=1)
+    rng = np.random.default_rng(1)
+    d = mujoco.MjData(m)
+    d.qpos[:] = m.qpos0
+    d.qpos[3:7] = (0.98, 0.1, -0.15, 0.08)
+    d.qpos[3:7] /= np.linalg.norm(d.qpos[3:7])
+    d.qvel[:] = rng.normal(0.0, 0.5, m.nv)
+    mujoco.mj_forward(m, d)
+    mx = mjx.put_model(m)
+    before = mjx.make_data(mx).replace(qpos=jnp.asarray(d.qpos, jnp.float32), qvel=jnp.asarray(d.qvel, jnp.float32),
+                                       sensordata=jnp.zeros(m.nsensordata, jnp.float32))
+    after = engine.step(mx, before)
+    bodies = np.array([c_cassie.pelvis_body, *c_cassie.foot_body])
+    np.testing.assert_allclose(np.asarray(after.xpos)[bodies], d.xpos[bodies], atol=1e-5)
+    np.testing.assert_allclose(np.asarray(after.xmat)[bodies], d.xmat[bodies].reshape(-1, 3, 3), atol=1e-5)
+    np.testing.assert_allclose(np.asarray(after.subtree_com)[bodies], d.subtree_com[bodies], atol=1e-5)
+    np.testing.assert_allclose(np.asarray(after.cvel)[bodies], d.cvel[bodies], atol=1e-4)
+    assert np.abs(d.cvel[bodies]).max() > 0.1 and np.abs(np.asarray(after.qpos) - d.qpos).max() > 1e-4
+
+
+def test_the_c_engine_refuses_a_model_without_its_sensors(cassie):
+    """A model compiled for another impl lacks the engine sensors: the engine says so rather than
+    hand the observation stale kinematics."""
+    from mjx_cascade.physics import CEngine
+
+    with pytest.raises(ValueError, match="engine sensors"):
+        CEngine(cassie.model, threads=1)

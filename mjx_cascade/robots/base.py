@@ -144,7 +144,7 @@ def build(definition: RobotDefinition, physics: PhysicsConfig, model: str | None
     """Compile the model for `physics` (and a scenario terrain, or several: `scene.compile_model`)
     and derive the controller's arrays."""
     spec = definition.load_spec(model_path(definition, model))
-    model = scene.compile_model(spec, definition.feet, physics, terrain or {"type": "flat"})
+    model = scene.compile_model(spec, definition.feet, physics, terrain or {"type": "flat"}, definition.pelvis)
     return derive(definition, model)
 
 

@@ -8,7 +8,8 @@
   faster.
 - Each foot gets a touch sensor (its normal ground reaction force, Sec. III-C) on a box
   site enclosing the foot's collision geoms; the model's own sensors are dropped, since the
-  controller reads the state directly.
+  controller reads the state directly (MuJoCo's C engine reports the feet's and the pelvis's
+  kinematics through sensors of its own, `physics.add_engine_sensors`).
 - Terrain: `flat` is a plane; `slope` and `rough` are height fields that are flat within
   1 m of the start, so every scenario begins standing on level ground. A list of terrains
   builds one height field whose vertical range holds them all; `hfield_data` gives each
@@ -25,6 +26,7 @@ import mujoco
 import numpy as np
 
 from mjx_cascade.config import PhysicsConfig
+from mjx_cascade.physics import add_engine_sensors
 
 FLAT_RADIUS = 1.0  # m of level ground around the start
 HFIELD_EXTENT = ((-5.0, 25.0), (-10.0, 10.0))  # x and y ranges covered by a height field, m
@@ -32,15 +34,19 @@ HFIELD_CELL = 0.04  # m
 
 
 def compile_model(spec: mujoco.MjSpec, feet: tuple[str, str], physics: PhysicsConfig,
-                  terrain: dict | Sequence[dict]) -> mujoco.MjModel:
+                  terrain: dict | Sequence[dict], pelvis: str) -> mujoco.MjModel:
     """The robot's MJCF `spec` with the ground (or terrains), foot sensors and physics options;
-    `feet` names the foot bodies (left, right)."""
+    `feet` names the foot bodies (left, right), `pelvis` the root body. For MuJoCo's C engine
+    (`impl: mujoco`) the feet and pelvis also get the sensors through which it reports what the
+    observation reads of them (`physics.add_engine_sensors`)."""
     _strip_visuals(spec)
     for sensor in list(spec.sensors):
         spec.delete(sensor)
     foot_geoms = _feet_only_collisions(spec, feet)
     for foot, geoms in zip(feet, foot_geoms):
         _add_touch_sensor(spec, foot, geoms)
+    if physics.impl == "mujoco":
+        add_engine_sensors(spec, (pelvis, *feet))
     _add_ground(spec, terrain)
     spec.option.timestep = physics.dt
     spec.option.iterations = physics.solver_iterations
