@@ -201,7 +201,7 @@ def _add_benchmark(sub) -> None:
 def profiles_names() -> tuple[str, ...]:
     from mjx_cascade import profiles
 
-    return profiles.ROLES + tuple(profiles.NAMED)
+    return profiles.ROLES + tuple(profiles.NAMED) + profiles.test_sets()
 
 
 def _add_revise(sub) -> None:

@@ -52,16 +52,26 @@ def command_ranges(cfg: Config) -> dict[str, tuple[float, float]]:
 
 
 def draw_set(robot: str, role: str) -> list[Scenario]:
-    """The profiles of `robot`'s `role` set (`configs/sets.yaml`), named `<robot>_<role>NN`."""
-    if role not in ROLES:
-        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES + tuple(NAMED))}")
-    entry = sets().get(robot, {}).get(role)
+    """The profiles of `robot`'s `role` set (`configs/sets.yaml`), named `<robot>_<role>NN`;
+    `test:NAME` is the test set of another frozen policy of the robot (its `tests` entry NAME),
+    named `<robot>_test_<NAME>NN`."""
+    kind, _, policy = role.partition(":")
+    if kind not in ROLES or (policy and kind != "test"):
+        raise ConfigError(f"unknown set {role!r}; choose from {', '.join(ROLES + tuple(NAMED))} or test:NAME")
+    entries = sets().get(robot, {})
+    entry = entries.get("tests", {}).get(policy) if policy else entries.get(role)
     if entry is None:
         raise ConfigError(f"{robot} has no {role} set yet" + (
-            ": it is drawn only after the policy it judges is frozen (configs/sets.yaml)" if role == "test" else ""))
+            ": it is drawn only after the policy it judges is frozen (configs/sets.yaml)" if kind == "test" else ""))
     rng = np.random.default_rng(entry["seed"])
     ranges = command_ranges(robot_config(robot))
-    return [parse(draw(rng, f"{robot}_{role}{k:02d}", ranges)) for k in range(1, entry["count"] + 1)]
+    label = f"test_{policy}" if policy else role
+    return [parse(draw(rng, f"{robot}_{label}{k:02d}", ranges)) for k in range(1, entry["count"] + 1)]
+
+
+def test_sets() -> tuple[str, ...]:
+    """`test:NAME` for every other frozen policy's test set in `configs/sets.yaml`."""
+    return tuple(sorted({f"test:{name}" for entries in sets().values() for name in entries.get("tests", {})}))
 
 
 def steps(robot: str) -> list[Scenario]:
@@ -96,5 +106,5 @@ NAMED = {"steps": steps, "starts": starts}  # the sets that are not drawn, by na
 
 
 def resolve(robot: str, name: str) -> list[Scenario]:
-    """The scenarios of a named set: `dev`, `val`, `test`, `steps` or `starts`."""
+    """The scenarios of a named set: `dev`, `val`, `test` (or `test:NAME`), `steps` or `starts`."""
     return NAMED[name](robot) if name in NAMED else draw_set(robot, name)

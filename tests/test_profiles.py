@@ -28,7 +28,9 @@ def test_a_set_is_drawn_from_its_seed_over_the_robots_full_command_ranges(robot,
 def test_the_sets_of_one_robot_differ_and_test_waits_for_a_frozen_policy():
     dev, val = profiles.draw_set("cassie", "dev"), profiles.draw_set("cassie", "val")
     assert not {s.commands for s in dev} & {s.commands for s in val}
-    seeds = [entry["seed"] for robot in profiles.sets().values() for entry in robot.values()]
+    entries = [e for roles in profiles.sets().values() for role, e in roles.items() if role != "tests"]
+    entries += [e for roles in profiles.sets().values() for e in roles.get("tests", {}).values()]
+    seeds = [e["seed"] for e in entries]
     assert len(seeds) == len(set(seeds))
     for robot, roles in profiles.sets().items():
         if "test" in roles:  # written only with the hash of the policy it judges
@@ -38,6 +40,23 @@ def test_the_sets_of_one_robot_differ_and_test_waits_for_a_frozen_policy():
                 profiles.draw_set(robot, "test")
     with pytest.raises(ConfigError, match="unknown set"):
         profiles.draw_set("cassie", "train")
+
+
+def test_another_frozen_policys_test_set_is_its_own_draw(monkeypatch):
+    """`test:NAME` draws the `tests` entry NAME, apart from the robot's `test`, and is offered to
+    the command line; an unknown NAME waits for its policy to be frozen."""
+    shipped = profiles.sets()
+    other = {"seed": 12345, "count": 3, "frozen": "f" * 64}
+    monkeypatch.setattr(profiles, "sets", lambda: {**shipped, "cassie": {**shipped["cassie"], "tests": {"cpu": other}}})
+    drawn = profiles.draw_set("cassie", "test:cpu")
+    assert [s.name for s in drawn] == ["cassie_test_cpu01", "cassie_test_cpu02", "cassie_test_cpu03"]
+    assert drawn == profiles.resolve("cassie", "test:cpu")
+    assert not {s.commands for s in drawn} & {s.commands for s in profiles.draw_set("cassie", "test")}
+    assert "test:cpu" in profiles.test_sets()
+    with pytest.raises(ConfigError, match="frozen"):
+        profiles.draw_set("cassie", "test:other")
+    with pytest.raises(ConfigError, match="unknown set"):
+        profiles.draw_set("cassie", "val:cpu")
 
 
 def test_steps_cross_each_range_end_to_end():
