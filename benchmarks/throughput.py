@@ -87,12 +87,11 @@ def engine_host_rate(engine: physics.CEngine, env, batch: int, steps: int) -> fl
     packed[:, i["qpos"]], packed[:, i["qvel"]] = np.asarray(env.pool_qpos[0]), np.asarray(env.pool_qvel[0])
     packed[:, i["fields"]] = np.concatenate([getattr(m, f).ravel() for f in physics.PER_ENVIRONMENT])
     packed[:, i["live"]] = 1.0
-    terrain = np.zeros((1, 0), np.float32)
 
     def run():
         x = packed.copy()
         for _ in range(steps):
-            out = engine._host_step(x, terrain)
+            out = engine._host_step(x)  # flat ground: no height field goes along, as in training
             for k in ("qpos", "qvel", "act", "sensordata"):
                 x[:, i[k]] = out[:, o[k]]
         return x

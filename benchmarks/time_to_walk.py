@@ -5,10 +5,10 @@
 
 Trains with the robot's shipped config, or a config file (`robot` plus overrides, as
 `mjx-cascade train --config`; `configs/cassie_cpu.yaml` is the CPU recipe), plus `--set`
-overrides, exactly as `mjx-cascade train` does (`train.drive`), and every `--check-every` generations runs the ES mean through each
-scenario (default: the robot's `val` profiles, `configs/sets.yaml`) on the same device
-(`evaluate.Runner`: the scenarios in one batch through the same simulator, compiled once, at the
-bar's time step `--dt`), judging it with `evaluate.check` (the walking bar, `judge.walking`)
+overrides, exactly as `mjx-cascade train` does (`train.drive`), and every `--check-every`
+generations runs the ES mean through each scenario (default: the robot's `val` profiles,
+`configs/sets.yaml`) on the same device (`evaluate.Runner`: the scenarios in one batch through
+the same simulator, compiled once, at the bar's time step `--dt`), judging it with `evaluate.check` (the walking bar, `judge.walking`)
 from the recorded trajectory alone, as `train.eval_every` does, except that a check stops at the
 first tenth of its simulation in which a scenario fell (`stop_at_fall`: the scenarios not yet
 judged then count as not passed, and the verdict "not every scenario passed" is the same).
