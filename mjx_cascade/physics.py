@@ -269,8 +269,20 @@ class CEngine:
                 target = getattr(m, name)
                 target[:] = row[at:at + target.size].reshape(target.shape)
                 at += target.size
+            m.body_subtreemass[:] = subtree_masses(m.body_mass, m.body_parentid)
         self.written = fields.copy()
         return models
+
+
+def subtree_masses(body_mass: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """Each body's mass plus its descendants'. MuJoCo C's subtree centres of mass divide by the
+    model's `body_subtreemass`, computed when the model compiles, while MJX sums the masses it is
+    given at every step: a model whose `body_mass` changes (`randomization`, the mass sweep) needs
+    these written too, or C reports the centre of mass at the scaled masses' share of its position."""
+    total = np.array(body_mass, np.float64)
+    for b in range(len(total) - 1, 0, -1):  # a body's parent comes before it
+        total[parent[b]] += total[b]
+    return total
 
 
 def _layout(**sizes: int) -> dict:
