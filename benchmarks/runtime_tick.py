@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from mjx_cascade import config, evaluate, robots, runtime
     from mjx_cascade.benchmark import code_version
-    from mjx_cascade.train import cpu_model
+    from mjx_cascade._xla import cpu_model
 
     version = code_version()  # the code this process runs: imported at its start
     cfg, found = evaluate.load_policy(args.robot, None, config.PAPER_DT)

@@ -19,7 +19,7 @@ bar's. It stops at the first check that passes every scenario, or at the limits,
 
     {"device", "backend", "impl", "devices", "robot", "wall_clock_s", "compile_s", "training_s",
      "check_s", "physics_steps", "generations", "passed", "screen_dt", "checks": [...], "config": {...},
-     "date", "code_version", "versions", "command"}
+     "date", "code_version", "versions", "cpu", "cores", "command"}
 
 each check holding the stage that decided it (`screen` or `bar`) and that stage's verdicts.
 
@@ -109,6 +109,8 @@ def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: flo
         "date": datetime.date.today().isoformat(),
         "code_version": version,
         "versions": train.software_versions(),
+        "cpu": _xla.cpu_model(),  # the wall-clock on a CPU depends on which one, as much as on its cores
+        "cores": _xla.cores(),
     }
 
 

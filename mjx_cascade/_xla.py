@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
 
 CPU_SCHEDULER_FLAG = "--xla_cpu_enable_concurrency_optimized_scheduler=false"
 
@@ -25,6 +26,20 @@ def configure() -> None:
             f"if batched CPU runs hang, set XLA_FLAGS={CPU_SCHEDULER_FLAG}",
             file=sys.stderr,
         )
+
+
+def cpu_model() -> str:
+    """The host CPU's model name: XLA's CPU code, and so the last bits of training, depend on it,
+    as a CPU run's wall-clock does."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    import platform
+
+    return platform.processor() or platform.machine()
 
 
 DEVICE_COUNT_FLAG = "--xla_force_host_platform_device_count"

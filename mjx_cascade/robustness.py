@@ -15,6 +15,7 @@ own row of height-field data (`world.terrains`).
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import json
 import time
 from collections import Counter
@@ -25,7 +26,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from mjx_cascade import judge, plots, policy, randomization, robots, rollout, world
+from mjx_cascade import _xla, judge, plots, policy, randomization, robots, rollout, world
+from mjx_cascade.benchmark import code_version
 from mjx_cascade.config import Config, ConfigError
 from mjx_cascade.env import Env, make_env
 from mjx_cascade.evaluate import RECORD_PERIOD, joint_layout, load_policy, policy_record
@@ -258,6 +260,7 @@ def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | N
 
     Returns `(results, trajectories)` as `run` does, the results with the run's provenance.
     """
+    version = code_version()  # the code this process runs: taken before the hour-long part
     cfg, found = load_policy(robot, checkpoint_dir, dt, impl, settings)
     start = time.perf_counter()
     results, sim = run(cfg, found.params, sweep_cfg, model_path, progress)
@@ -269,6 +272,9 @@ def sweep(robot: str, out: str | Path, sweep_cfg: Sweep, checkpoint_dir: str | N
         "dt": cfg.physics.dt,
         "policy": policy_record(found, settings),
         "wall_clock_s": time.perf_counter() - start,
+        "date": datetime.date.today().isoformat(),
+        "code_version": version,
+        "cpu": _xla.cpu_model() if jax.default_backend() == "cpu" else None,
         **results,
     }
     out = Path(out)

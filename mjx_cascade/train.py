@@ -202,7 +202,7 @@ def metadata(trainer: Trainer, generation: int, physics_steps: float, wall_clock
         "impl": env.impl,
         "jax_version": jax.__version__,
         "versions": software_versions(),
-        "cpu": cpu_model(),
+        "cpu": _xla.cpu_model(),
         "reproducibility": "bitwise on the same devices and backend; on another device count or kind "
                            "within floating-point tolerance",
         "config": to_dict(trainer.cfg),
@@ -223,19 +223,6 @@ def software_versions() -> dict[str, str]:
 
     return {name: version(name) for name in ("mjx-cascade", "jax", "jaxlib", "mujoco", "mujoco-mjx", "flax",
                                              "optax", "numpy")}
-
-
-def cpu_model() -> str:
-    """The host CPU's model name: XLA's CPU code, and so the last bits of training, depend on it."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    import platform
-
-    return platform.processor() or platform.machine()
 
 
 def drive(trainer: Trainer, state: es.ESState, target: int, every: int,

@@ -58,6 +58,7 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, monkeypatch
     assert set(checks) == {"short", "other"}
     for check in checks.values():  # a check stops at a fall: the scenarios not fallen by then are unjudged
         assert check["segments"] == [] and check["passed"] in ((not check["fell"]), None)
+    assert result["cpu"] and result["cores"] >= 1  # which machine the wall-clock is of
     json.dumps(result)  # what the script writes
 
 

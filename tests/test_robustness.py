@@ -111,6 +111,7 @@ def test_a_small_sweep_with_the_shipped_policy(tmp_path, capsys):
     saved = json.loads((tmp_path / "robustness.json").read_text())
     assert saved["cells"] == json.loads(json.dumps(results["cells"]))
     assert saved["policy"]["settings"] == {"regulators.k_phr": "0.3"}
+    assert saved["code_version"] and saved["date"] and saved["cpu"]  # what ran it, and where
     table = (tmp_path / "robustness.md").read_text()
     assert "Controller settings changed from the policy's config: `regulators.k_phr=0.3`." in table
     assert "| 400 | 0/1 | 0/1 | 0/1 | 0/1 |" in table and "| -11 | " in table
