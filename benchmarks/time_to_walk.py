@@ -10,8 +10,9 @@ generations runs the ES mean through each scenario (default: the robot's `val` p
 `configs/sets.yaml`) on the same device (`evaluate.Runner`: the scenarios in one batch through
 the same simulator, compiled once, at the bar's time step `--dt`), judging it with `evaluate.check` (the walking bar, `judge.walking`)
 from the recorded trajectory alone, as `train.eval_every` does, except that a check stops at the
-first tenth of its simulation in which a scenario fell (`stop_at_fall`: the scenarios not yet
-judged then count as not passed, and the verdict "not every scenario passed" is the same).
+first tenth of its simulation in which a scenario fell or finished a command out of bounds
+(`stop_at_miss`: the scenarios undecided then count as not passed, and the verdict "not every
+scenario passed" is the same).
 Where the training time step is longer than the bar's, each check first screens the policy at
 the training step (a quarter of the simulation at 2 ms against 0.5 ms), and runs the bar only
 for a policy that passes every scenario there: the verdict that stops the run is always the
@@ -70,7 +71,7 @@ def time_to_walk(cfg: config.Config, scenarios: list[scenario.Scenario], dt: flo
         t_check = time.perf_counter()
         mean = np.asarray(jax.device_get(state.mean))
         for stage, runners in stages:
-            results = evaluate.check(runners, mean, stop_at_fall=True)
+            results = evaluate.check(runners, mean, stop_at_miss=True)
             passed = all(r["passed"] is True for r in results.values())
             if not passed:
                 break

@@ -97,42 +97,59 @@ class Runner:
         """The seconds the batch simulates: its longest scenario's, in whole records."""
         return self.chunks * self.every * self.env.dt
 
-    def __call__(self, params: np.ndarray, progress: Tick | None = None, stop_at_fall: bool = False) -> list[dict]:
+    def __call__(self, params: np.ndarray, progress: Tick | None = None, stop_at_miss: bool = False) -> list[dict]:
         """The batch's trajectories under `params`, telling `progress` the seconds simulated as they
-        pass (`rollout.record_in_calls`: the same numbers with or without it). With `stop_at_fall`
-        the simulation stops after the first tenth in which a scenario fell, and the trajectories
-        end there (shorter than their scenarios)."""
+        pass (`rollout.record_in_calls`: the same numbers with or without it). With `stop_at_miss`
+        the simulation stops after the first tenth in which a scenario missed the bar
+        (`verdict_so_far`), and the trajectories end there (shorter than their scenarios)."""
         env = self.env
         if params.shape[0] != self.num_params:
             raise ConfigError(f"the policy has {params.shape[0]} parameters; this robot's policy needs "
                               f"{self.num_params}")
         p = jnp.asarray(params)
         seconds = None if progress is None else lambda done, _: progress(done * self.every * env.dt)
-        until = _fall_watch(self.records) if stop_at_fall else None
+        until = self._miss_watch() if stop_at_miss else None
         records = rollout.record_in_calls(lambda carry, first: self._advance(p, carry, first), self._start(p),
                                           self.chunks, seconds, until)
+        return self._trajectories(records)
+
+    def _trajectories(self, records: tuple) -> list[dict]:
+        """Each scenario's trajectory from records `(qpos, qvel, ground, stance)` [records, B, ...],
+        cut back to its own length."""
         qpos, qvel, ground, stance = (np.swapaxes(x, 0, 1) for x in records)
         t = self.times[self.every - 1::self.every]  # exact step counts x dt (MJX's float32 clock drifts)
         return [{
             "t": t[:n], "qpos": qpos[i, :n], "qvel": qvel[i, :n], "cmd": self.cmd[i, :n, -1],
             "force": self.force[i, :n, -1], "ground": ground[i, :n], "stance": stance[i, :n],
-            "dt": np.float64(env.dt), **joint_layout(env.robot),
+            "dt": np.float64(self.env.dt), **joint_layout(self.env.robot),
         } for i, n in enumerate(min(n, qpos.shape[1]) for n in self.records)]
 
+    def _miss_watch(self) -> Callable[[tuple], bool]:
+        """`until(records of a call)` for `rollout.record_in_calls`: whether a scenario has missed
+        the bar in the records so far (`verdict_so_far`)."""
+        parts = []
 
-def _fall_watch(lengths: list[int]) -> Callable[[tuple], bool]:
-    """`until(records)` for `rollout.record_in_calls`: whether a scenario fell within its own
-    `lengths` (records) in a call's records `(qpos, qvel, ground, stance)` [records, B, ...]."""
-    done = 0
+        def until(records: tuple) -> bool:
+            parts.append(records)
+            so_far = self._trajectories(tuple(np.concatenate(xs) for xs in zip(*parts)))
+            return any(verdict_so_far(traj, len(traj["t"]) == n)["passed"] is False
+                       for traj, n in zip(so_far, self.records))
 
-    def until(records: tuple) -> bool:
-        nonlocal done
-        qpos, _, ground, _ = records
-        first, done = done, done + qpos.shape[0]
-        return any(judge.fallen(qpos[:max(0, n - first), i], ground[:max(0, n - first), i]).any()
-                   for i, n in enumerate(lengths))
+        return until
 
-    return until
+
+def verdict_so_far(traj: dict, whole: bool) -> dict:
+    """The walking bar's verdict `{passed, fell, fall_time, segments}` on a trajectory, or on the
+    first part of one (`whole` false). A part has missed the bar (`passed` False) where it fell or
+    where a segment it holds whole (one that a later command ended) is out of bounds; otherwise it
+    is undecided (`passed` None). Its unfinished last segment is left unjudged: the 1-s average
+    trails, so a finished segment's errors are the same in the part as in the whole trajectory.
+    `segments` holds the judged segments only."""
+    m = judge.walking(traj)
+    segments = [seg for seg in (m["segments"] if whole else m["segments"][:-1]) if "within_bounds" in seg]
+    passed = m["passed"] if whole else (False if m["fell"] or not all(seg["within_bounds"] for seg in segments)
+                                        else None)
+    return {"passed": passed, "fell": m["fell"], "fall_time": m["fall_time"], "segments": segments}
 
 
 def joint_layout(robot: Robot) -> dict:
@@ -151,22 +168,18 @@ def runners(cfg: Config, scenarios: Sequence[Scenario], model_path: str | None =
     return [Runner(cfg, batch, model_path) for batch in (plane, fields) if batch]
 
 
-def check(batches: Sequence[Runner], params: np.ndarray, stop_at_fall: bool = False) -> dict[str, dict]:
+def check(batches: Sequence[Runner], params: np.ndarray, stop_at_miss: bool = False) -> dict[str, dict]:
     """The walking bar's verdict on one policy in every scenario of `batches` (`runners`), by name:
     `{passed, fell, fall_time, segments}`, the segments only those judged.
 
-    With `stop_at_fall` a batch stops after the tenth of its simulation in which a scenario fell,
-    and every scenario that did not fall by then is left unjudged (`passed` None, no segments):
-    whether the policy passes them all is decided, at a fraction of the cost for one that falls."""
+    With `stop_at_miss` a batch stops after the tenth of its simulation in which a scenario fell or
+    finished a segment out of bounds, and every scenario is judged on what ran (`verdict_so_far`):
+    the ones that missed fail, and the ones still undecided are left unjudged (`passed` None).
+    Whether the policy passes them all is decided, at a fraction of the cost for one that misses."""
     results = {}
     for runner in batches:
-        for s, traj, n in zip(runner.scenarios, runner(params, stop_at_fall=stop_at_fall), runner.records):
-            m = judge.walking(traj)
-            if len(traj["t"]) < n and not m["fell"]:
-                results[s.name] = {"passed": None, "fell": False, "fall_time": None, "segments": []}
-                continue
-            results[s.name] = {"passed": m["passed"], "fell": m["fell"], "fall_time": m["fall_time"],
-                               "segments": [seg for seg in m["segments"] if "within_bounds" in seg]}
+        for s, traj, n in zip(runner.scenarios, runner(params, stop_at_miss=stop_at_miss), runner.records):
+            results[s.name] = verdict_so_far(traj, len(traj["t"]) == n)
     return results
 
 

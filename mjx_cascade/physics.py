@@ -241,7 +241,9 @@ class CEngine:
         return out[0] if single else out
 
     def _rollout(self, packed: np.ndarray, models: list[mujoco.MjModel], which: np.ndarray):
-        """`(new states, sensors)` of the environments `which` (their rows `packed`), one step each."""
+        """`(new states, sensors)` of the environments `which` (their rows `packed`), one step each,
+        in one chunk per thread: a one-step rollout is short enough that the pool's default of ten
+        chunks per thread costs more in hand-offs than it gains in balance (benchmarks/README.md)."""
         n, i = packed.shape[0], self.inputs
         state = np.repeat(self.template[None], n, axis=0)
         for k in ("time", "qpos", "qvel", "act"):
@@ -251,7 +253,7 @@ class CEngine:
         self.pool.rollout([models[j] for j in which], self.datas, state,
                           np.ascontiguousarray(packed[:, None, i["control"]]), control_spec=_CONTROL, nstep=1,
                           skip_checks=True, initial_warmstart=np.ascontiguousarray(packed[:, i["warmstart"]]),
-                          state=new, sensordata=sensors)
+                          state=new, sensordata=sensors, chunk_size=-(-n // self.threads))
         return new[:, 0], sensors[:, 0]
 
     def _models(self, batch: int, fields: np.ndarray) -> list[mujoco.MjModel]:

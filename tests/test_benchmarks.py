@@ -28,8 +28,8 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, monkeypatch
     assert cfg.physics.dt > EVAL_DT  # so each check screens at the training step first
     stages, check = [], evaluate.check
 
-    def recorded(runners, params, stop_at_fall=False):
-        results = check(runners, params, stop_at_fall)
+    def recorded(runners, params, stop_at_miss=False):
+        results = check(runners, params, stop_at_miss)
         stages.append((runners[0].env.dt, all(r["passed"] is True for r in results.values())))
         return results
 
@@ -56,15 +56,16 @@ def test_time_to_walk_checks_the_bar_on_the_trained_mean(cassie_cfg, monkeypatch
     # no segment long enough to judge, so each passes exactly when the robot stays up
     checks = result["checks"][-1]["scenarios"]
     assert set(checks) == {"short", "other"}
-    for check in checks.values():  # a check stops at a fall: the scenarios not fallen by then are unjudged
+    for check in checks.values():  # a check stops at a miss: the scenarios undecided by then are unjudged
         assert check["segments"] == [] and check["passed"] in ((not check["fell"]), None)
     assert result["cpu"] and result["cores"] >= 1  # which machine the wall-clock is of
     json.dumps(result)  # what the script writes
 
 
 def test_a_check_stopped_at_a_fall_gives_the_full_checks_verdict_for_a_fraction_of_the_simulation():
-    """`stop_at_fall`: the simulation ends after the tenth in which a scenario fell; that fall is the
-    full run's, the trajectories are its prefix, and scenarios still standing are left unjudged."""
+    """`stop_at_miss`: the simulation ends after the tenth in which a scenario fell (a miss; for a
+    segment out of bounds, tests/test_evaluate.py); that fall is the full run's, the trajectories are
+    its prefix, and scenarios still standing are left unjudged."""
     found = policies.load("cassie")
     cfg = found.config.override(**{"physics.impl": "auto", "physics.dt": EVAL_DT, "episode.pool_size": 4})
     kick = scenario.parse({"name": "kick", "duration": 1.0, "commands": [{"t": 0.0, "vx": 0.3, "vy": 0.0, "yaw": 0.0}],
@@ -73,15 +74,15 @@ def test_a_check_stopped_at_a_fall_gives_the_full_checks_verdict_for_a_fraction_
     runners = [evaluate.Runner(cfg, [kick, calm])]
     full = evaluate.check(runners, found.params)
     assert full["kick"]["fell"] and full["calm"]["passed"]
-    stopped = evaluate.check(runners, found.params, stop_at_fall=True)
+    stopped = evaluate.check(runners, found.params, stop_at_miss=True)
     assert stopped["kick"] == full["kick"]
     assert stopped["calm"] == {"passed": None, "fell": False, "fall_time": None, "segments": []}
-    short, whole = runners[0](found.params, stop_at_fall=True), runners[0](found.params)
+    short, whole = runners[0](found.params, stop_at_miss=True), runners[0](found.params)
     n = len(short[0]["t"])
     assert n < len(whole[0]["t"]) and n >= full["kick"]["fall_time"] / evaluate.RECORD_PERIOD
     np.testing.assert_array_equal(short[1]["qpos"], whole[1]["qpos"][:n])
     # with no fall it runs to the end and judges everything, as the full check
-    assert evaluate.check([evaluate.Runner(cfg, [calm])], found.params, stop_at_fall=True)["calm"] == full["calm"]
+    assert evaluate.check([evaluate.Runner(cfg, [calm])], found.params, stop_at_miss=True)["calm"] == full["calm"]
 
 
 def test_runner_takes_the_policy_as_an_argument(cassie_cfg):
