@@ -147,8 +147,12 @@ def verdict_so_far(traj: dict, whole: bool) -> dict:
     `segments` holds the judged segments only."""
     m = judge.walking(traj)
     segments = [seg for seg in (m["segments"] if whole else m["segments"][:-1]) if "within_bounds" in seg]
-    passed = m["passed"] if whole else (False if m["fell"] or not all(seg["within_bounds"] for seg in segments)
-                                        else None)
+    if whole:
+        passed = m["passed"]
+    elif m["fell"] or not all(seg["within_bounds"] for seg in segments):
+        passed = False
+    else:
+        passed = None
     return {"passed": passed, "fell": m["fell"], "fall_time": m["fall_time"], "segments": segments}
 
 
