@@ -152,6 +152,11 @@ def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = 
     network = policy.for_controller(cfg, len(robots.get(cfg.robot).learned), jax.random.PRNGKey(0))
     on_plane = np.array([tr["type"] == "flat" for tr in t.terrain])
     batches = [idx for idx in (np.nonzero(on_plane)[0], np.nonzero(~on_plane)[0]) if len(idx)]
+    # refused before any trial runs: the C engine finds out only at the height fields' first step
+    several = any(len(scene.distinct([t.terrain[i] for i in idx])) > 1 for idx in batches)
+    if cfg.physics.impl == "mujoco" and several:
+        raise ConfigError("impl mujoco steps every trial of a batch on one terrain; slopes and rough "
+                          "ground of several levels run with impl jax")
     traj = {}
     for b, idx in enumerate(batches):
         sub = Trials([t.label[i] for i in idx], t.cmd[idx], t.push_t[idx], t.force[idx], t.mass[idx],

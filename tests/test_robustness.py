@@ -117,3 +117,16 @@ def test_a_small_sweep_with_the_shipped_policy(tmp_path, capsys):
     assert "| 400 | 0/1 | 0/1 | 0/1 | 0/1 |" in table and "| -11 | " in table
     for png in ("robustness.png", "push_response.png", "push_limit_cycle.png", "terrain_tracking.png"):
         assert (tmp_path / png).stat().st_size > 10_000
+
+
+def test_the_c_engine_refuses_several_terrains_before_any_trial_runs(tmp_path, monkeypatch):
+    """MuJoCo's C engine steps a batch on one terrain: a sweep over several slopes says so at once,
+    not at its height fields' first step after the trials on the plane."""
+    def no_trials(*args, **kwargs):
+        raise AssertionError("a trial ran")
+
+    monkeypatch.setattr(robustness, "simulate", no_trials)
+    sweep = robustness.Sweep(axes=("mass", "slope"), trials=1, slopes=(-5.0, 5.0))
+    with pytest.raises(ConfigError, match="one terrain"):
+        robustness.sweep("cassie", tmp_path, sweep, impl="mujoco")
+    assert not (tmp_path / "robustness.json").exists()
