@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-VERSION = 5  # of the saved form (`to_dict`); `migrate` reads every earlier one
+VERSION = 6  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp", "mujoco")
@@ -104,6 +104,7 @@ class RegulatorConfig:
     k_phr: float  # swing hip roll, P on (v_y - v_y^d)
     k_dhr: float  # swing hip roll, on (v_y - v_y^ls)
     k_php: float  # swing hip pitch, P on (v_x - v_x^d)
+    backstep_limit: float  # rad: bound on that P term where it steps the foot back (v_x < v_x^d); 0: none
     k_dhp: float  # swing hip pitch, on (v_x - v_x^ls)
     k_neutral_x: float  # fraction of Raibert's neutral point v T / 2 added forward (regulators.neutral_point)
     k_neutral_y: float  # and sideways
@@ -133,6 +134,7 @@ class RegulatorConfig:
         need(self.drift_limit >= 0, "regulators.drift_limit must be >= 0")
         need(self.height > 0, "regulators.height must be positive")
         need(self.k_height >= 0, "regulators.k_height must be >= 0")
+        need(self.backstep_limit >= 0, "regulators.backstep_limit must be >= 0")
         need(min(self.command_rate) >= 0, "regulators.command_rate must be >= 0 (0 = no limit)")
 
 
@@ -450,6 +452,9 @@ _V2_DEFAULTS = {"train": {"eval_every": 0}}
 # Settings added after version 4, with the value a saved config without them meant.
 _V4_DEFAULTS = {"regulators": {"start_from_rest": False}}
 
+# Settings added after version 5, with the value a saved config without them meant.
+_V5_DEFAULTS = {"regulators": {"backstep_limit": 0.0}}
+
 
 def migrate(data: dict) -> dict:
     """A saved config of any version, in the current form (without its `version`).
@@ -462,12 +467,13 @@ def migrate(data: dict) -> dict:
     measured over the stance foot with the regulation on is no longer supported. Versions 1 to 3
     may hold `policy.mirror_lateral` (version 1 without it meant false): right-stance steps now
     always see the state mirrored, so a config that did not mirror it is no longer supported.
-    Versions 1 to 4 started the followed command at the first one (`_V4_DEFAULTS`).
+    Versions 1 to 4 started the followed command at the first one (`_V4_DEFAULTS`). Versions 1
+    to 5 did not bound the backward swing placement (`_V5_DEFAULTS`).
     """
     need(isinstance(data, dict), "a saved config must be a mapping")
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     version = data.pop("version", 1)
-    need(version in (1, 2, 3, 4, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
+    need(version in (1, 2, 3, 4, 5, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
     if version == 1:
         _fill_defaults(data, _V1_DEFAULTS)
         need(data["regulators"].pop("slope_estimation", True) is True,
@@ -484,6 +490,8 @@ def migrate(data: dict) -> dict:
              "is no longer supported")
     if version < 5:
         _fill_defaults(data, _V4_DEFAULTS)
+    if version < 6:
+        _fill_defaults(data, _V5_DEFAULTS)
     return data
 
 

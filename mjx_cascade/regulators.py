@@ -81,10 +81,17 @@ def swing_placement(v_bar: Array, v_des: Array, v_ls: Array, beta: Array, tau: A
     Positive moves the foot in the direction of the excess velocity (Raibert's foot placement).
     The printed P matrix repeats K_dhr in row 2; K_dhp (Table 7) is the evident intent. The
     robot multiplies each component by the sign of d(foot position)/d(joint angle).
+    Deviation: `backstep_limit` (0: none) bounds the K_php term where it moves the foot back. A
+    backward push of 100 N takes about 0.65 m/s off Cassie, so the term asks for 0.2 rad; v1's
+    parameters fell 0.6 to 0.9 s later in 6 of 10 trials, and with the term bounded at 0.1 rad in
+    none (benchmarks/results/backstep_on_v1/). No shipped policy trained with a bound.
     """
     e_des = v_bar - v_des
     e_last = v_bar - v_ls
-    forward = cfg.k_php * e_des[0] + cfg.k_dhp * e_last[0] + beta[0]
+    p_x = cfg.k_php * e_des[0]
+    if cfg.backstep_limit > 0:
+        p_x = jnp.maximum(p_x, -cfg.backstep_limit)
+    forward = p_x + cfg.k_dhp * e_last[0] + beta[0]
     lateral = cfg.k_phr * e_des[1] + cfg.k_dhr * e_last[1] + beta[1]
     return blend(tau, cfg) * jnp.stack([forward, lateral])
 

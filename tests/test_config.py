@@ -135,6 +135,13 @@ def test_migration_reads_a_version_4_config_as_starting_at_the_first_command():
     assert config.from_dict(old) == cfg.override(**{"regulators.start_from_rest": False})
 
 
+def test_migration_reads_a_version_5_config_as_an_unbounded_backward_placement():
+    cfg = config.robot_config("cassie").override(**{"regulators.backstep_limit": 0.1})
+    old = {**config.to_dict(cfg), "version": 5}
+    del old["regulators"]["backstep_limit"]  # saved before the setting: no bound
+    assert config.from_dict(old) == cfg.override(**{"regulators.backstep_limit": 0.0})
+
+
 def test_migration_reads_a_version_2_config_as_one_without_validation_checks():
     cfg = config.robot_config("cassie").override(**{"train.eval_every": 5})
     old = {**config.to_dict(cfg), "version": 2}

@@ -24,6 +24,21 @@ def test_swing_placement_follows_excess_velocity_and_ramps_in():
     np.testing.assert_allclose(drift, [0.05, -0.02], atol=1e-7)
 
 
+def test_backstep_limit_bounds_only_a_backward_placement():
+    """The K_php term is bounded where it steps the foot back, not where it steps it forward, and
+    a small error stays proportional; 0 bounds nothing."""
+    zero = jnp.zeros(2)
+    reg = dataclasses.replace(REG, k_php=0.3, k_dhp=0.0, backstep_limit=0.1)
+
+    def forward(v: float, cfg: config.RegulatorConfig) -> float:
+        return float(regulators.swing_placement(jnp.array([v, 0.0]), zero, zero, zero, 1.0, cfg)[0])
+
+    assert forward(-0.65, reg) == pytest.approx(-0.1)  # a 100-N backward push: 0.3 x -0.65 = -0.195 unbounded
+    assert forward(0.65, reg) == pytest.approx(0.195)  # forward: the whole gain
+    assert forward(-0.2, reg) == pytest.approx(-0.06)  # under the bound: the whole gain
+    assert forward(-0.65, dataclasses.replace(reg, backstep_limit=0.0)) == pytest.approx(-0.195)
+
+
 def test_lip_prediction():
     """x'' = g/h x: at rest over the foot nothing moves; a CoM beside the foot falls away from it,
     faster the longer the wait; with the CoM over the foot the velocity grows by cosh(w t)."""
