@@ -152,15 +152,15 @@ def run(cfg: Config, params: np.ndarray, sweep: Sweep, model_path: str | None = 
     network = policy.for_controller(cfg, len(robots.get(cfg.robot).learned), jax.random.PRNGKey(0))
     on_plane = np.array([tr["type"] == "flat" for tr in t.terrain])
     batches = [idx for idx in (np.nonzero(on_plane)[0], np.nonzero(~on_plane)[0]) if len(idx)]
-    kinds_of = [scene.distinct([t.terrain[i] for i in idx]) for idx in batches]
+    subs = [Trials([t.label[i] for i in idx], t.cmd[idx], t.push_t[idx], t.force[idx], t.mass[idx],
+                   [t.terrain[i] for i in idx]) for idx in batches]
+    kinds_of = [scene.distinct(sub.terrain) for sub in subs]
     # refused before any trial runs: the C engine finds out only at the height fields' first step
     if cfg.physics.impl == "mujoco" and any(len(kinds) > 1 for kinds in kinds_of):
         raise ConfigError("impl mujoco steps every trial of a batch on one terrain; slopes and rough "
                           "ground of several levels run with impl jax")
     traj = {}
-    for b, (idx, kinds) in enumerate(zip(batches, kinds_of)):
-        sub = Trials([t.label[i] for i in idx], t.cmd[idx], t.push_t[idx], t.force[idx], t.mass[idx],
-                     [t.terrain[i] for i in idx])
+    for b, (idx, sub, kinds) in enumerate(zip(batches, subs, kinds_of)):
         env = make_env(cfg, network.apply, model_path, terrain=kinds[0] if len(kinds) == 1 else kinds)
         title = f"batch {b + 1}/{len(batches)}: {describe(sub)}"
         out = simulate(env, params, sub, sweep, progress(title, sweep.seconds) if progress else None)
