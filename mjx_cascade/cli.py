@@ -166,11 +166,18 @@ def _add_eval(sub) -> None:
 def _add_robustness(sub) -> None:
     rob = _command(sub, "robustness", "success rates against pushes, slopes, rough ground and mass error",
                    "  mjx-cascade robustness --robot cassie --out results/robustness\n"
-                   "  mjx-cascade robustness --checkpoint runs/cassie --axes push slope --trials 4 --out rob\n")
+                   "  mjx-cascade robustness --checkpoint runs/cassie --axes push slope --trials 4 --out rob\n"
+                   "  mjx-cascade robustness --checkpoint runs/cassie --impl mujoco --axes push --push-forces 125 150 \\\n"
+                   "      --push-directions forward backward --set regulators.k_neutral_x=0.8 --no-figures --out rob_nx08\n")
     _add_simulation_args(rob)
     rob.add_argument("--axes", nargs="+", metavar="AXIS", help="any of push slope rough mass (default: all)")
     rob.add_argument("--trials", type=int, help="trials per cell (default 10)")
     rob.add_argument("--seconds", type=float, help="length of each trial, s (default 10)")
+    rob.add_argument("--push-forces", nargs="+", type=float, metavar="N",
+                     help="push forces, N (default 0 25 50 75 100 125 150)")
+    rob.add_argument("--push-directions", nargs="+", metavar="DIR",
+                     help="any of forward backward left right (default: all)")
+    rob.add_argument("--no-figures", action="store_true", help="write only robustness.json and robustness.md")
     rob.set_defaults(func=cmd_robustness)
 
 
@@ -478,11 +485,14 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     from mjx_cascade import progress, robustness
 
     given = {k: v for k, v in (("axes", args.axes and tuple(args.axes)), ("trials", args.trials),
-                               ("seconds", args.seconds)) if v is not None}
+                               ("seconds", args.seconds), ("push_forces", args.push_forces and tuple(args.push_forces)),
+                               ("push_directions", args.push_directions and tuple(args.push_directions)))
+             if v is not None}
     sweep = dataclasses.replace(robustness.Sweep(), **given)
     model, out, settings = _simulation_args(args)
     results, _ = robustness.sweep(args.robot, out, sweep, checkpoint_dir=args.checkpoint, model_path=model,
-                                  dt=args.dt, impl=args.impl, settings=settings, progress=progress.Report("robustness"))
+                                  dt=args.dt, impl=args.impl, settings=settings, progress=progress.Report("robustness"),
+                                  plot=not args.no_figures)
     if args.json:
         print(json.dumps({k: v for k, v in results.items() if k != "trials"}, indent=2))
     else:

@@ -342,6 +342,8 @@ def bad_inputs(tmp_path):
         (["info", "--checkpoint", ckpt_free], "not a checkpoint"),
         (["robustness", "--robot", "cassie", "--axes", "push", "wind", "--out"], "unknown sweep axis 'wind'"),
         (["robustness", "--robot", "cassie", "--dt", "-1", "--out"], "--dt"),
+        (["robustness", "--robot", "cassie", "--axes", "push", "--push-directions", "up", "--out"],
+         "unknown push direction 'up'"),
         # an evaluation changes only the controller and physics the policy runs in
         (["eval", "--robot", "cassie", "--scenario", scen(GOOD), "--set", "rewards.e_vy=0.1", "--out"],
          "can change only"),

@@ -37,9 +37,21 @@ def test_every_cell_gets_its_trials_and_pushes_come_at_random_phases():
     assert seeds == {0, 1, 2}
     np.testing.assert_allclose(t.cmd, [[0.3, 0.0, 0.0]] * len(t.label))
     for bad, message in (({"axes": ("wind",)}, "unknown sweep axis"), ({"trials": 0}, "trials"),
-                         ({"seconds": 2.0}, "seconds must exceed")):
+                         ({"seconds": 2.0}, "seconds must exceed"), ({"push_directions": ("up",)}, "push direction 'up'"),
+                         ({"push_directions": ()}, "push direction")):
         with pytest.raises(ConfigError, match=message):
             robustness.Sweep(**bad)
+
+
+def test_a_push_scan_tries_only_the_forces_and_directions_it_names():
+    """`push_forces` and `push_directions` narrow the push cells (a cheap scan of one weak cell);
+    the trials' phases are drawn in the order the directions are named."""
+    sweep = robustness.Sweep(axes=("push",), trials=2, push_forces=(125.0, 150.0), push_directions=("forward", "backward"))
+    t = robustness.trials(sweep, STEP)
+    assert t.label == [("push", f, d) for _ in range(2) for f in (125.0, 150.0) for d in ("forward", "backward")]
+    np.testing.assert_allclose(t.force[:2], [[125.0, 0.0, 0.0], [-125.0, 0.0, 0.0]])
+    rng = np.random.default_rng(sweep.seed)
+    np.testing.assert_array_equal(t.push_t, sweep.push_after + rng.uniform(0.0, 2 * STEP, len(t.label)))
 
 
 def _walk(v, seconds=10.0, fall_at=None):
@@ -130,3 +142,28 @@ def test_the_c_engine_refuses_several_terrains_before_any_trial_runs(tmp_path, m
     with pytest.raises(ConfigError, match="one terrain"):
         robustness.sweep("cassie", tmp_path, sweep, impl="mujoco")
     assert not (tmp_path / "robustness.json").exists()
+
+
+def test_a_push_scan_from_the_command_line_writes_its_tables_without_figures(tmp_path, monkeypatch):
+    """`--push-forces`, `--push-directions` and `--no-figures` reach the sweep: the trials are the
+    named cells only, and the output is the two tables (the simulation is stood in for)."""
+    from mjx_cascade import cli
+
+    ran = []
+
+    def stand_in(cfg, params, sweep, model_path=None, progress=None):
+        t = robustness.trials(sweep, cfg.gait.step_time)
+        ran.append(t.label)
+        verdicts = [{"success": label[1] < 150.0, "fell": label[1] >= 150.0} for label in t.label]
+        return robustness.summarize(t, verdicts, sweep), {}
+
+    monkeypatch.setattr(robustness, "run", stand_in)
+    out = tmp_path / "scan"
+    assert cli.main(["robustness", "--robot", "cassie", "--axes", "push", "--trials", "2", "--push-forces", "125",
+                     "150", "--push-directions", "backward", "--no-figures", "--out", str(out)]) == 0
+    assert ran == [[("push", f, "backward") for _ in range(2) for f in (125.0, 150.0)]]
+    assert sorted(p.name for p in out.iterdir()) == ["robustness.json", "robustness.md"]
+    saved = json.loads((out / "robustness.json").read_text())
+    assert saved["figures"] == [] and saved["sweep"]["push_directions"] == ["backward"]
+    table = (out / "robustness.md").read_text()
+    assert "| push force (N) | backward |" in table and "| 125 | 2/2 |" in table and "| 150 | 0/2 |" in table
