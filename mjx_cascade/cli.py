@@ -489,6 +489,8 @@ def cmd_robustness(args: argparse.Namespace) -> int:
                                ("push_directions", args.push_directions and tuple(args.push_directions)))
              if v is not None}
     sweep = dataclasses.replace(robustness.Sweep(), **given)
+    if (args.push_forces or args.push_directions) and "push" not in sweep.axes:
+        raise ConfigError("--push-forces and --push-directions need the push axis (--axes push ...)")
     model, out, settings = _simulation_args(args)
     results, _ = robustness.sweep(args.robot, out, sweep, checkpoint_dir=args.checkpoint, model_path=model,
                                   dt=args.dt, impl=args.impl, settings=settings, progress=progress.Report("robustness"),

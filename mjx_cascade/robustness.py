@@ -62,8 +62,14 @@ class Sweep:
         if unknown or not self.axes:
             raise ConfigError(f"unknown sweep axis {unknown[0] if unknown else None!r}; choose from {', '.join(AXES)}")
         odd = sorted(set(self.push_directions) - set(DIRECTIONS))
-        if odd or not self.push_directions:
-            raise ConfigError(f"unknown push direction {odd[0] if odd else None!r}; choose from {', '.join(DIRECTIONS)}")
+        if odd:
+            raise ConfigError(f"unknown push direction {odd[0]!r}; choose from {', '.join(DIRECTIONS)}")
+        # a repeated force or direction would fold two cells into one of twice the trials
+        if not self.push_directions or len(set(self.push_directions)) < len(self.push_directions):
+            raise ConfigError("push directions must be one or more distinct names")
+        forces = np.asarray(self.push_forces, dtype=float)
+        if forces.size == 0 or not np.all(np.isfinite(forces) & (forces >= 0)) or np.unique(forces).size < forces.size:
+            raise ConfigError("push forces must be one or more distinct finite values of at least 0 N")
         if self.trials < 1:
             raise ConfigError("trials must be at least 1")
         if not self.bar.judge_seconds < self.seconds:

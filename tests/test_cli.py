@@ -344,6 +344,8 @@ def bad_inputs(tmp_path):
         (["robustness", "--robot", "cassie", "--dt", "-1", "--out"], "--dt"),
         (["robustness", "--robot", "cassie", "--axes", "push", "--push-directions", "up", "--out"],
          "unknown push direction 'up'"),
+        (["robustness", "--robot", "cassie", "--axes", "push", "--push-forces", "-50", "--out"], "push forces must be"),
+        (["robustness", "--robot", "cassie", "--axes", "mass", "--push-directions", "left", "--out"], "need the push axis"),
         # an evaluation changes only the controller and physics the policy runs in
         (["eval", "--robot", "cassie", "--scenario", scen(GOOD), "--set", "rewards.e_vy=0.1", "--out"],
          "can change only"),

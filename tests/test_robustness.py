@@ -38,7 +38,11 @@ def test_every_cell_gets_its_trials_and_pushes_come_at_random_phases():
     np.testing.assert_allclose(t.cmd, [[0.3, 0.0, 0.0]] * len(t.label))
     for bad, message in (({"axes": ("wind",)}, "unknown sweep axis"), ({"trials": 0}, "trials"),
                          ({"seconds": 2.0}, "seconds must exceed"), ({"push_directions": ("up",)}, "push direction 'up'"),
-                         ({"push_directions": ()}, "push direction")):
+                         ({"push_directions": ()}, "push directions must be"),
+                         ({"push_directions": ("left", "left")}, "push directions must be"),
+                         ({"push_forces": ()}, "push forces must be"), ({"push_forces": (-50.0,)}, "push forces must be"),
+                         ({"push_forces": (float("nan"),)}, "push forces must be"),
+                         ({"push_forces": (125.0, 125.0)}, "push forces must be")):
         with pytest.raises(ConfigError, match=message):
             robustness.Sweep(**bad)
 
@@ -46,10 +50,10 @@ def test_every_cell_gets_its_trials_and_pushes_come_at_random_phases():
 def test_a_push_scan_tries_only_the_forces_and_directions_it_names():
     """`push_forces` and `push_directions` narrow the push cells (a cheap scan of one weak cell);
     the trials' phases are drawn in the order the directions are named."""
-    sweep = robustness.Sweep(axes=("push",), trials=2, push_forces=(125.0, 150.0), push_directions=("forward", "backward"))
+    sweep = robustness.Sweep(axes=("push",), trials=2, push_forces=(125.0, 150.0), push_directions=("backward", "forward"))
     t = robustness.trials(sweep, STEP)
-    assert t.label == [("push", f, d) for _ in range(2) for f in (125.0, 150.0) for d in ("forward", "backward")]
-    np.testing.assert_allclose(t.force[:2], [[125.0, 0.0, 0.0], [-125.0, 0.0, 0.0]])
+    assert t.label == [("push", f, d) for _ in range(2) for f in (125.0, 150.0) for d in ("backward", "forward")]
+    np.testing.assert_allclose(t.force[:2], [[-125.0, 0.0, 0.0], [125.0, 0.0, 0.0]])
     rng = np.random.default_rng(sweep.seed)
     np.testing.assert_array_equal(t.push_t, sweep.push_after + rng.uniform(0.0, 2 * STEP, len(t.label)))
 
