@@ -5,8 +5,12 @@
 
 Compares every generation the new run logged (its `metrics.jsonl`) with the shipped policy's log,
 field by field and exactly: fitness, physics steps, sigma, learning rate, episode books. Only the
-timing fields (`TIMING`) may differ. Where the run reached the shipped generation, the parameters'
-sha256 must match the record's too. Training is reproducible bit for bit on the same devices and
+timing fields (`TIMING`) may differ. The `val` checks' figures (`CHECK`) are compared where both
+logs hold them: how often a run is checked (`train.eval_every`, 0 for none) does not change what
+it trains, so a rerun may skip the checks that took half of a CPU recipe's time (a rerun of a
+320-generation C-engine run without them logged every generation identically:
+benchmarks/results/candidates/cassie_cpu_nvx08/reproduce_no_checks.json). Where the run
+reached the shipped generation, the parameters' sha256 must match the record's too. Training is reproducible bit for bit on the same devices and
 backend (the record's `reproducibility`), so one differing bit in any generation is a failure.
 Writes
 
@@ -26,12 +30,20 @@ from pathlib import Path
 
 from mjx_cascade import benchmark, checkpoint, policies
 
-TIMING = ("wall_clock_s", "samples_per_s")  # the only fields a rerun may change
+TIMING = ("wall_clock_s", "samples_per_s", "val/seconds")  # the only fields a rerun may change
+CHECK = "val/"  # a validation check's figures: compared where both runs checked that generation
 
 
 def _rows(path: Path) -> dict[int, dict]:
     rows = (json.loads(line) for line in path.read_text().splitlines() if line.strip())
     return {row["generation"]: {k: v for k, v in row.items() if k not in TIMING} for row in rows}
+
+
+def _differing(new: dict, shipped: dict) -> list[str]:
+    """The fields of one generation's rows that differ, a check's only where both rows hold it."""
+    checked = any(k.startswith(CHECK) for k in new) and any(k.startswith(CHECK) for k in shipped)
+    keys = (k for k in new.keys() | shipped.keys() if checked or not k.startswith(CHECK))
+    return sorted(k for k in keys if new.get(k) != shipped.get(k))
 
 
 def compare(run: Path, policy: Path) -> dict:
@@ -44,8 +56,7 @@ def compare(run: Path, policy: Path) -> dict:
         if generation not in shipped:
             first = {"generation": generation, "field": None, "why": "not in the shipped log"}
             break
-        diff = sorted(k for k in new[generation].keys() | shipped[generation].keys()
-                      if new[generation].get(k) != shipped[generation].get(k))
+        diff = _differing(new[generation], shipped[generation])
         if diff:
             first = {"generation": generation, "field": diff[0], "run": new[generation].get(diff[0]),
                      "shipped": shipped[generation].get(diff[0])}

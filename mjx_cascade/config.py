@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-VERSION = 6  # of the saved form (`to_dict`); `migrate` reads every earlier one
+VERSION = 7  # of the saved form (`to_dict`); `migrate` reads every earlier one
 # The robot registry: name -> the module whose `DEFINITION` describes it (`robots.get`).
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp", "mujoco")
@@ -108,6 +108,7 @@ class RegulatorConfig:
     k_dhp: float  # swing hip pitch, on (v_x - v_x^ls)
     k_neutral_x: float  # fraction of Raibert's neutral point v T / 2 added forward (regulators.neutral_point)
     k_neutral_y: float  # and sideways
+    neutral_vx_max: float  # m/s: forward velocity beyond which the neutral point holds (regulators.neutral_point); 0: none
     k_ptp: float  # stance toe pitch (eq. 24 row 6)
     k_ptr: float  # stance toe roll (eq. 24 row 7)
     k_heading: float  # swing hip yaw per rad of heading error, eq. 24 row 3
@@ -135,6 +136,7 @@ class RegulatorConfig:
         need(self.height > 0, "regulators.height must be positive")
         need(self.k_height >= 0, "regulators.k_height must be >= 0")
         need(self.backstep_limit >= 0, "regulators.backstep_limit must be >= 0")
+        need(self.neutral_vx_max >= 0, "regulators.neutral_vx_max must be >= 0 (0 = no bound)")
         need(min(self.command_rate) >= 0, "regulators.command_rate must be >= 0 (0 = no limit)")
 
 
@@ -455,6 +457,9 @@ _V4_DEFAULTS = {"regulators": {"start_from_rest": False}}
 # Settings added after version 5, with the value a saved config without them meant.
 _V5_DEFAULTS = {"regulators": {"backstep_limit": 0.0}}
 
+# Settings added after version 6, with the value a saved config without them meant.
+_V6_DEFAULTS = {"regulators": {"neutral_vx_max": 0.0}}
+
 
 def migrate(data: dict) -> dict:
     """A saved config of any version, in the current form (without its `version`).
@@ -468,12 +473,13 @@ def migrate(data: dict) -> dict:
     may hold `policy.mirror_lateral` (version 1 without it meant false): right-stance steps now
     always see the state mirrored, so a config that did not mirror it is no longer supported.
     Versions 1 to 4 started the followed command at the first one (`_V4_DEFAULTS`). Versions 1
-    to 5 did not bound the backward swing placement (`_V5_DEFAULTS`).
+    to 5 did not bound the backward swing placement (`_V5_DEFAULTS`), and versions 1 to 6 the
+    forward velocity the neutral point grows with (`_V6_DEFAULTS`).
     """
     need(isinstance(data, dict), "a saved config must be a mapping")
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     version = data.pop("version", 1)
-    need(version in (1, 2, 3, 4, 5, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
+    need(version in (1, 2, 3, 4, 5, 6, VERSION), f"config version {version!r} is newer than this mjx_cascade reads ({VERSION})")
     if version == 1:
         _fill_defaults(data, _V1_DEFAULTS)
         need(data["regulators"].pop("slope_estimation", True) is True,
@@ -492,6 +498,8 @@ def migrate(data: dict) -> dict:
         _fill_defaults(data, _V4_DEFAULTS)
     if version < 6:
         _fill_defaults(data, _V5_DEFAULTS)
+    if version < 7:
+        _fill_defaults(data, _V6_DEFAULTS)
     return data
 
 

@@ -56,8 +56,15 @@ def neutral_point(v_bar: Array, height: Array, step_time: float, cfg: RegulatorC
     moves the foot by the velocity *error*, so an untrained policy that lands the foot under
     the hip speeds up until the error alone places it far enough. Deviation: the paper leaves
     this offset to the learned trajectories. `k_neutral_x`, `k_neutral_y` scale it per direction.
+    `neutral_vx_max` (0: none) bounds the forward velocity it grows with: up to the fastest command
+    the point is Raibert's, beyond it (mostly after a forward push) it holds, and the velocity-error
+    terms answer the excess. A shorter point at every speed (k_neutral_x 0.8) held more 125-N forward
+    pushes but slowed a 0.8 -> -0.3 m/s reversal to 3.0 s (benchmarks/results/candidates/); bounding
+    backward speeds too (at -0.3 m/s) lost backward pushes (benchmarks/results/push_scan/README.md).
     """
     k = jnp.array([cfg.k_neutral_x, cfg.k_neutral_y], dtype=jnp.float32)
+    if cfg.neutral_vx_max > 0:
+        v_bar = v_bar.at[0].set(jnp.minimum(v_bar[0], cfg.neutral_vx_max))
     return k * v_bar * step_time / (2.0 * height)
 
 

@@ -142,6 +142,13 @@ def test_migration_reads_a_version_5_config_as_an_unbounded_backward_placement()
     assert config.from_dict(old) == cfg.override(**{"regulators.backstep_limit": 0.0})
 
 
+def test_migration_reads_a_version_6_config_as_a_neutral_point_unbounded_in_speed():
+    cfg = config.robot_config("cassie").override(**{"regulators.neutral_vx_max": 0.8})
+    old = {**config.to_dict(cfg), "version": 6}
+    del old["regulators"]["neutral_vx_max"]  # saved before the setting: no bound
+    assert config.from_dict(old) == cfg.override(**{"regulators.neutral_vx_max": 0.0})
+
+
 def test_migration_reads_a_version_2_config_as_one_without_validation_checks():
     cfg = config.robot_config("cassie").override(**{"train.eval_every": 5})
     old = {**config.to_dict(cfg), "version": 2}
@@ -193,7 +200,7 @@ def test_differences_name_the_changed_keys_in_order():
 @pytest.mark.parametrize("key, value", [("randomization.push_force", [50, 10]), ("randomization.push_force", [-1, 10]),
                                         ("randomization.push_seconds", 0), ("randomization.push_after", [3, 1]),
                                         ("episode.command_change", [3, 1]), ("episode.command_change", [-1, 1]),
-                                        ("regulators.command_rate", [-1, 1]),
+                                        ("regulators.command_rate", [-1, 1]), ("regulators.neutral_vx_max", -0.1),
                                         ("randomization.push_warmup_generations", -1),
                                         ("rewards.velocity_steps", 3), ("rewards.velocity_steps", 0),
                                         ("gait.first_swing", "left")])

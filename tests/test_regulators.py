@@ -63,6 +63,22 @@ def test_neutral_point_is_half_a_step_of_travel_over_the_leg():
     assert REG.k_neutral_x > 0  # Cassie lands the foot ahead when moving forward
 
 
+def test_neutral_vx_max_holds_the_neutral_point_only_above_it():
+    """Up to the bound the point grows with the forward velocity; beyond it, it holds, and the
+    sideways and backward points are Raibert's; 0 bounds nothing."""
+    reg = dataclasses.replace(REG, k_neutral_x=1.0, k_neutral_y=1.0, neutral_vx_max=0.8)
+
+    def point(vx: float, vy: float, cfg: config.RegulatorConfig) -> np.ndarray:
+        return np.asarray(regulators.neutral_point(jnp.array([vx, vy]), 0.8, 0.35, cfg))
+
+    scale = 0.35 / 1.6
+    np.testing.assert_allclose(point(1.2, 0.2, reg), [0.8 * scale, 0.2 * scale], rtol=1e-6)  # after a forward push
+    np.testing.assert_allclose(point(0.5, 0.0, reg), [0.5 * scale, 0.0], rtol=1e-6)  # within the commanded range
+    np.testing.assert_allclose(point(-0.7, 0.0, reg), [-0.7 * scale, 0.0], rtol=1e-6)  # backward: unbounded
+    np.testing.assert_allclose(point(1.2, 0.0, dataclasses.replace(reg, neutral_vx_max=0.0)), [1.2 * scale, 0.0],
+                               rtol=1e-6)
+
+
 def test_heading_turns_back_and_wraps():
     assert regulators.heading(0.3, 0.0, 1.0, REG) < 0
     assert regulators.heading(-0.3, 0.0, 1.0, REG) > 0
