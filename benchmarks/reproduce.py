@@ -10,8 +10,9 @@ logs hold them: how often a run is checked (`train.eval_every`, 0 for none) does
 it trains, so a rerun may skip the checks that took half of a CPU recipe's time (a rerun of a
 320-generation C-engine run without them logged every generation identically:
 benchmarks/results/candidates/cassie_cpu_nvx08/reproduce_no_checks.json). Where the run
-reached the shipped generation, the parameters' sha256 must match the record's too. Training is reproducible bit for bit on the same devices and
-backend (the record's `reproducibility`), so one differing bit in any generation is a failure.
+reached the shipped generation, the parameters' sha256 must match the record's too. Training is
+reproducible bit for bit on the same devices and backend (the record's `reproducibility`), so one
+differing bit in any generation is a failure.
 Writes
 
     {"run", "policy", "generations_compared", "identical", "first_difference", "params",
