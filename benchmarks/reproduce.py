@@ -1,6 +1,6 @@
 """Does a new training run reproduce a shipped policy's run, generation by generation?
 
-    mjx-cascade train --robot cassie --cpu-devices 2 --generations 20 --out runs/repro
+    mjx-cascade train --robot cassie --generations 20 --out runs/repro
     python benchmarks/reproduce.py runs/repro --policy mjx_cascade/policies/cassie --out FILE.json
 
 Compares every generation the new run logged (its `metrics.jsonl`) with the shipped policy's log,

@@ -25,22 +25,25 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 
 # result file (under RESULTS) -> the role its profiles have played; the set's name comes from the file
+CASSIE = "candidates/cassie_cpu_nvx08"  # the run that became Cassie v2: its files, chosen and judged as a candidate
 FILES = {
-    "walking/cassie_val_g320.json": "chose the checkpoint (of generations 300, 310, 320)",
-    "walking/cassie_test.json": "drawn after the policy was frozen; run once",
-    "walking/cassie_steps.json": "command steps across the full ranges",
-    "walking/cassie_starts.json": "starts from standing into the ranges' corners",
+    f"{CASSIE}/walking/cassie_val.json": "chose the checkpoint (the best of 32 checks in training)",
+    f"{CASSIE}/walking/cassie_test.json": "drawn after the policy was frozen; run once",
+    f"{CASSIE}/walking/cassie_steps.json": "command steps across the full ranges",
+    f"{CASSIE}/walking/cassie_starts.json": "starts from standing into the ranges' corners",
     "walking/digit_val_g60.json": "chose the checkpoint (of generations 40, 50, 60)",
     "walking/digit_test.json": "drawn after the policy was frozen; run once",
     "walking/digit_steps.json": "command steps across the full ranges",
     "walking/digit_starts.json": "starts from standing into the ranges' corners",
 }
-# robot -> its shipped policy's robustness sweep (under RESULTS)
-ROBUSTNESS = {"cassie": "robustness_cpu_v1/robustness.json"}
+# robot -> its shipped policy's robustness sweep (under RESULTS), in one file or split by axis over several
+ROBUSTNESS = {"cassie": (f"{CASSIE}/robustness_push/robustness.json", f"{CASSIE}/robustness_mass/robustness.json",
+                         f"{CASSIE}/robustness_slope_rough/robustness.json")}
 DIRECTIONS = ("forward", "backward", "left", "right")
+IMPLS = {"mujoco": "MuJoCo C", "jax": "MJX"}  # the robustness files' `impl`, as the table names it
 ROBUSTNESS_HEADER = ("| robot | push 100 N (forward, backward, left, right) | push 150 N | slopes, worst cell "
-                     "| rough ground, worst cell | mass, worst cell | trials per cell, dt, wall-clock |\n"
-                     "| --- | --- | --- | --- | --- | --- | --- |")
+                     "| rough ground, worst cell | mass, worst cell | trials per cell, dt | engine and wall-clock |\n"
+                     "| --- | --- | --- | --- | --- | --- | --- | --- |")
 HEADER = ("| robot | profiles | role | passed | falls | worst errors without the falls (vx, vy m/s; heading rad) "
           "| settling after a change, median / worst (vx; vy s) | date, code | MuJoCo C: passed, falls |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -92,8 +95,9 @@ def table(results: Path = RESULTS) -> str:
     return "\n".join([HEADER, *rows])
 
 
-def robustness_row(result: dict) -> str:
-    cells = result["cells"]
+def robustness_row(robot: str, results: list[dict]) -> str:
+    """One robot's row from its sweep's files: each axis from the file that ran it."""
+    cells = {axis: c for result in results for axis, c in result["cells"].items()}
     pushes = {(c["level"], c["direction"]): c["successes"] for c in cells["push"]}
 
     def push(force: float) -> str:
@@ -104,20 +108,27 @@ def robustness_row(result: dict) -> str:
         levels = [c["level"] for c in cells[axis]]
         return f"{cell['successes']}/{cell['trials']} ({min(levels):g} to {max(levels):g} {unit})"
 
-    sweep = result["sweep"]
-    return (f"| {result['robot']} | {push(100.0)} | {push(150.0)} | {worst('slope', 'degrees')} | "
-            f"{worst('rough', 'm')} | {worst('mass', 'x')} | {sweep['trials']}, {result['dt']} s, "
-            f"{result['wall_clock_s']:.0f} s |")
+    trials = {(r["sweep"]["trials"], r["dt"]) for r in results}
+    if len(trials) > 1:
+        raise SystemExit(f"{robot}'s robustness files differ in trials per cell or dt: {sorted(trials)}")
+    (count, dt), = trials
+    engines = "; ".join(f"{', '.join(r['sweep']['axes'])}: {IMPLS.get(r['impl'], r['impl'])}, {r['wall_clock_s']:.0f} s"
+                        for r in results)
+    return (f"| {robot} | {push(100.0)} | {push(150.0)} | {worst('slope', 'degrees')} | "
+            f"{worst('rough', 'm')} | {worst('mass', 'x')} | {count}, {dt} s | {engines} |")
 
 
 def robustness_table(results: Path = RESULTS) -> str:
     rows = []
-    for robot, name in ROBUSTNESS.items():
-        result = _read(results / name)
-        if result is None:
-            raise SystemExit(f"{results / name} is missing: run `mjx-cascade robustness` (benchmarks/README.md)")
-        check_policy(name, {"robot": robot, **result})
-        rows.append(robustness_row(result))
+    for robot, names in ROBUSTNESS.items():
+        sweeps = []
+        for name in names:
+            result = _read(results / name)
+            if result is None:
+                raise SystemExit(f"{results / name} is missing: run `mjx-cascade robustness` (benchmarks/README.md)")
+            check_policy(name, {"robot": robot, **result})
+            sweeps.append(result)
+        rows.append(robustness_row(robot, sweeps))
     return "\n".join([ROBUSTNESS_HEADER, *rows])
 
 

@@ -92,8 +92,8 @@ def after_smoke(smoke, tmp_path_factory):
             # a changed reward setting, accepted: the run goes on with it and records the change
             "changed": ["train", "--robot", "cassie", "--generations", 4, *SMOKE, "--set",
                         "rewards.termination_penalty=10", "--accept-changes"],
-            # MuJoCo's C engine for the physics
-            "c_engine": ["train", "--robot", "cassie", "--generations", 2, *SMOKE, "--impl", "mujoco"]}
+            # MJX for the physics, the accelerators' engine, on the CPU's devices
+            "mjx": ["train", "--robot", "cassie", "--generations", 2, *SMOKE, "--impl", "jax"]}
     shutil.copytree(smoke[0], tmp / "changed")
     jobs = {name: (tmp / name, start_cli(tmp / name, *args, "--out", tmp / name)) for name, args in runs.items()}
     return {**jobs, "exported": exported}
@@ -117,10 +117,10 @@ def test_train_writes_checkpoints_and_metrics_then_resumes(smoke):
     # every 10 generations by default, and always where a run stops
     assert sorted(p.name for p in (out / "checkpoints").iterdir() if p.name.isdigit()) == ["2", "3"]
     assert (out / "learning_curve.png").stat().st_size > 10_000
-    from mjx_cascade import _xla, policies
+    from mjx_cascade import policies
 
-    # no --cpu-devices: the population is shared over one device per core (two on a 2-core CPU)
-    assert policies.read(out)[0]["devices"] == _xla.cpu_devices("auto", population=4)
+    # Cassie's config steps MuJoCo's C engine, which threads each step over the cores from one device
+    assert config.robot_config("cassie").physics.impl == "mujoco" and policies.read(out)[0]["devices"] == 1
 
 
 @pytest.mark.slow
@@ -193,16 +193,16 @@ def test_train_warm_starts_from_an_exported_policy_and_counts_on_from_its_genera
 
 
 @pytest.mark.slow
-def test_training_steps_the_c_engine_from_one_device_that_feeds_every_core(after_smoke):
-    """`--impl mujoco`: one JAX device by default (the engine threads each step over the cores),
-    recorded with the run, and the generations score real episodes."""
-    from mjx_cascade import policies
+def test_training_in_mjx_shares_the_population_over_one_device_per_core(after_smoke):
+    """`--impl jax` without `--cpu-devices`: one JAX device per core (two on a 2-core CPU), recorded
+    with the run, and the generations score real episodes."""
+    from mjx_cascade import _xla, policies
 
-    out, proc = after_smoke["c_engine"]
+    out, proc = after_smoke["mjx"]
     res = finished(proc, out)
     assert res.returncode == 0, res.stderr[-3000:]
-    assert policies.read(out)[0]["devices"] == 1
-    assert config.load(out / "config.yaml").physics.impl == "mujoco"
+    assert policies.read(out)[0]["devices"] == _xla.cpu_devices("auto", population=4)
+    assert config.load(out / "config.yaml").physics.impl == "jax"
     rows = [json.loads(line) for line in (out / "metrics.jsonl").read_text().splitlines()]
     assert [r["generation"] for r in rows] == [1, 2]
     assert all(np.isfinite(r["fitness_mean"]) and r["physics_steps"] > 0 for r in rows)
@@ -469,9 +469,9 @@ def test_auto_takes_the_most_cores_that_share_the_population_and_the_robot_allow
     assert _xla.cpu_devices("5", population=24) == 5  # a count given is the user's; check_devices refuses it
     from mjx_cascade import train
 
-    cassie = config.robot_config("cassie")
-    assert train.cpu_device_count(cassie) == 2 and train.cpu_device_count(config.robot_config("digit")) == 1
-    assert train.cpu_device_count(cassie.override(**{"physics.impl": "mujoco"})) == 1  # the engine threads itself
+    cassie = config.robot_config("cassie")  # MuJoCo's C engine, which threads each step itself
+    assert train.cpu_device_count(cassie) == 1 and train.cpu_device_count(config.robot_config("digit")) == 1
+    assert train.cpu_device_count(cassie.override(**{"physics.impl": "jax"})) == 2
 
 
 def test_version_and_help_for_every_option_with_examples_per_command():

@@ -14,9 +14,9 @@ B = 256
 
 def _draws(generation=0, **over):
     """Cassie's schedules for B episodes, pushes off unless `over` sets them (its config holds them off
-    for 250 generations)."""
+    for its first generations), at a 1-ms step: the times below are in steps of 1 ms."""
     over = {"randomization.push_force": [0.0, 0.0], "randomization.push_warmup_generations": 0,
-            "randomization.enabled": False, **over}
+            "randomization.enabled": False, "physics.dt": 0.001, **over}
     cfg = config.robot_config("cassie").override(**over)
     env = types.SimpleNamespace(cfg=cfg, dt=cfg.physics.dt, model=None)
     keys = jax.random.split(jax.random.PRNGKey(0), B)

@@ -30,8 +30,9 @@ def test_the_sets_of_one_robot_differ_and_test_waits_for_a_frozen_policy():
     assert not {s.commands for s in dev} & {s.commands for s in val}
     entries = [e for roles in profiles.sets().values() for role, e in roles.items() if role != "tests"]
     entries += [e for roles in profiles.sets().values() for e in roles.get("tests", {}).values()]
-    seeds = [e["seed"] for e in entries]
-    assert len(seeds) == len(set(seeds))
+    # one seed, one set: a test set keeps its candidate-time name once its policy ships
+    draws = {(e["seed"], e.get("frozen")) for e in entries}
+    assert len(draws) == len({seed for seed, _ in draws})
     for robot, roles in profiles.sets().items():
         if "test" in roles:  # written only with the hash of the policy it judges
             assert len(roles["test"]["frozen"]) == 64

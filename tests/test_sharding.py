@@ -20,9 +20,10 @@ from pathlib import Path
 import mjx_cascade, jax, jax.numpy as jnp, numpy as np
 from mjx_cascade import checkpoint, config, train
 assert len(jax.devices()) == int(sys.argv[2]), jax.devices()
-# the CLI smoke run's settings: on one device this program is already in the compilation cache
+# the CLI's MJX smoke run's settings: MJX shares the population over the devices (the C engine, Cassie's
+# default, trains on one)
 cfg = config.robot_config("cassie").override(**{"es.population": 4, "episode.seconds": 0.5,
-    "episode.pool_size": 4})
+    "episode.pool_size": 4, "physics.impl": "jax"})
 trainer = train.setup(cfg)
 state, metrics = trainer.run(trainer.state, jnp.int32(1))
 np.save(sys.argv[1], np.stack([np.asarray(trainer.state.mean), np.asarray(state.mean)]))
