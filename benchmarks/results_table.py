@@ -97,6 +97,9 @@ def table(results: Path = RESULTS) -> str:
 
 def robustness_row(robot: str, results: list[dict]) -> str:
     """One robot's row from its sweep's files: each axis from the file that ran it."""
+    axes = [axis for result in results for axis in result["cells"]]
+    if len(axes) > len(set(axes)):
+        raise SystemExit(f"{robot}'s robustness files run an axis twice: {axes}")
     cells = {axis: c for result in results for axis, c in result["cells"].items()}
     pushes = {(c["level"], c["direction"]): c["successes"] for c in cells["push"]}
 
