@@ -12,7 +12,9 @@ it trains, so a rerun may skip the checks that took half of a CPU recipe's time 
 benchmarks/results/candidates/cassie_cpu_nvx08/reproduce_no_checks.json). Where the run
 reached the shipped generation, the parameters' sha256 must match the record's too. Training is
 reproducible bit for bit on the same devices and backend (the record's `reproducibility`), so one
-differing bit in any generation is a failure.
+differing bit in any generation is a failure. A policy that was its run's best `val` check rather
+than its last generation logs up to its own generation; a rerun that trained on past it is
+compared up to there, and its parameters at that generation are its `best/` or a saved one.
 Writes
 
     {"run", "policy", "generations_compared", "identical", "first_difference", "params",
@@ -28,6 +30,8 @@ import datetime
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from mjx_cascade import benchmark, checkpoint, policies
 
@@ -47,11 +51,24 @@ def _differing(new: dict, shipped: dict) -> list[str]:
     return sorted(k for k in keys if new.get(k) != shipped.get(k))
 
 
+def _params_at(run: Path, generation: int) -> np.ndarray | None:
+    """The run's parameters at `generation`: its saved generation, else its best check's where that
+    is the generation; None where neither holds it."""
+    saved = run / "checkpoints" / str(generation)
+    if saved.is_dir():
+        return policies.read(saved)[1]
+    if policies.is_policy_dir(run / "best"):
+        record, params = policies.read(run / "best")
+        return params if record["generation"] == generation else None
+    return None
+
+
 def compare(run: Path, policy: Path) -> dict:
-    """The generations the run logged, compared with the policy's log, and the parameters' hash where
-    the run reached the policy's generation."""
+    """The generations the run logged up to the policy's, compared with the policy's log, and the
+    parameters' hash where the run reached the policy's generation."""
     new, shipped = _rows(run / "metrics.jsonl"), _rows(policy / "metrics.jsonl")
     record = policies.read(policy)[0]
+    new = {g: row for g, row in new.items() if g <= record["generation"]}  # the policy's log ends there
     first = None
     for generation in sorted(new):
         if generation not in shipped:
@@ -66,7 +83,8 @@ def compare(run: Path, policy: Path) -> dict:
               "identical": first is None and bool(new), "first_difference": first,
               "shipped_devices": record.get("devices"), "params": None}
     if record["generation"] in new:
-        sha = checkpoint.params_sha256(policies.read(run)[1])
+        params = _params_at(run, record["generation"])
+        sha = None if params is None else checkpoint.params_sha256(params)
         result["params"] = {"run": sha, "shipped": record["params_sha256"], "equal": sha == record["params_sha256"]}
         result["identical"] = result["identical"] and result["params"]["equal"]
     return result

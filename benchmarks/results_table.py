@@ -26,15 +26,16 @@ RESULTS = ROOT / "benchmarks" / "results"
 
 # result file (under RESULTS) -> the role its profiles have played; the set's name comes from the file
 CASSIE = "candidates/cassie_cpu_nvx08"  # the run that became Cassie v2: its files, chosen and judged as a candidate
+DIGIT = "candidates/digit_turn"  # the run that became Digit v2, likewise
 FILES = {
     f"{CASSIE}/walking/cassie_val.json": "chose the checkpoint (the best of 32 checks in training)",
     f"{CASSIE}/walking/cassie_test.json": "drawn after the policy was frozen; run once",
     f"{CASSIE}/walking/cassie_steps.json": "command steps across the full ranges",
     f"{CASSIE}/walking/cassie_starts.json": "starts from standing into the ranges' corners",
-    "walking/digit_val_g60.json": "chose the checkpoint (of generations 40, 50, 60)",
-    "walking/digit_test.json": "drawn after the policy was frozen; run once",
-    "walking/digit_steps.json": "command steps across the full ranges",
-    "walking/digit_starts.json": "starts from standing into the ranges' corners",
+    f"{DIGIT}/walking/digit_val.json": "chose the checkpoint (the best of 12 checks in training)",
+    f"{DIGIT}/walking/digit_test.json": "drawn after the policy was frozen; run once",
+    f"{DIGIT}/walking/digit_steps.json": "command steps across the full ranges",
+    f"{DIGIT}/walking/digit_starts.json": "starts from standing into the ranges' corners",
 }
 # robot -> its shipped policy's robustness sweep (under RESULTS), in one file or split by axis over several
 ROBUSTNESS = {"cassie": (f"{CASSIE}/robustness_push/robustness.json", f"{CASSIE}/robustness_mass/robustness.json",

@@ -27,7 +27,7 @@ VERSION = 7  # of the saved form (`to_dict`); `migrate` reads every earlier one
 ROBOTS = {"cassie": "mjx_cascade.robots.cassie", "digit": "mjx_cascade.robots.digit"}
 IMPLS = ("auto", "jax", "warp", "mujoco")
 PAPER_DT = 0.0005  # s: the paper's 2 kHz loop; training steps at `physics.dt`, evaluation here by default
-FIRST_SWING = ("random", "command")
+FIRST_SWING = ("random", "command", "turn")
 OPTIMIZERS = ("adam", "sgd")
 
 
@@ -76,7 +76,8 @@ class GaitConfig:
     max_phase: float  # time-out: the step ends here whatever the contact force
     grf_threshold: float  # N, swing-foot normal force that counts as touchdown
     action_scale: float  # scales every learned joint's range about its middle
-    first_swing: str  # which foot lifts first from standing: random (a coin) or command (controller.first_stance)
+    first_swing: str  # which foot lifts first from standing: random (a coin), command (vy's side) or turn
+                     # (away from the turn; controller.first_stance)
 
     def __post_init__(self) -> None:
         need(self.bezier_order >= 2, "gait.bezier_order must be >= 2")

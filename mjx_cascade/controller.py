@@ -34,6 +34,7 @@ from mjx_cascade.robots.base import Robot
 
 GROUND_FILTER = 0.2  # s, time constant of the terrain slope estimate
 MIN_LIP_HEIGHT = 0.3  # m: keeps the LIP prediction finite while the robot falls
+FIRST_TURN = 0.1  # rad: the least turn that chooses the first swing foot under `gait.first_swing: turn`
 
 Policy = Callable[[Array, Array], Array]  # (flat parameters, features [6]) -> actions in (0, 1)
 
@@ -93,19 +94,29 @@ class Controller:
         action = self.policy(params, features.features(v_des, v_avg))
         return gait.coefficients(action, q_role[r.learned_role, r.learned_joint], self.action_low, self.action_high)
 
-    def first_stance(self, key: Array, cmd: Array) -> Array:
-        """The foot that stands through the first step, per `gait.first_swing`.
+    def first_stance(self, key: Array, cmd: Array, heading: Array) -> Array:
+        """The foot that stands through the first step, per `gait.first_swing` (not in the paper).
 
-        "command" (not in the paper): lifting a foot from standing lets the CoM, which starts
-        between the feet, fall towards that foot's side, so the foot on the side of the commanded
-        sideways velocity (`cmd[1]`, positive to the left) swings first; with vy = 0, a coin.
-        Started the other way, the first step drifts against the command.
+        "command": lifting a foot from standing lets the CoM, which starts between the feet, fall
+        towards that foot's side, so the foot on the side of the commanded sideways velocity
+        (`cmd[1]`, positive to the left) swings first; with vy = 0, a coin. Started the other way,
+        the first step drifts against the command.
+        "turn": the foot away from the turn (`cmd[2]` less the present `heading`, positive to the
+        left) swings first, so a left turn stands on the left foot; below `FIRST_TURN`, as
+        "command". A Digit policy trained with "command" fell in its second step when the foot on
+        the turn's side swung first while walking backwards; one trained with the turn deciding
+        however small it was fell where a heading command of 0 left the choice to the standing
+        state's own heading rather than vy (docs/results.md).
         """
         coin = jax.random.bernoulli(key).astype(jnp.int32)
         if self.cfg.gait.first_swing == "random":
             return coin
-        toward = jnp.where(cmd[1] > 0, gait.RIGHT, gait.LEFT)  # vy > 0: the right foot stands, the left swings
-        return jnp.where(cmd[1] == 0, coin, toward).astype(jnp.int32)
+        by_vy = jnp.where(cmd[1] == 0, coin, jnp.where(cmd[1] > 0, gait.RIGHT, gait.LEFT))  # vy > 0: the left swings
+        if self.cfg.gait.first_swing == "command":
+            return by_vy.astype(jnp.int32)
+        turn = regulators.wrap_angle(cmd[2] - heading)
+        by_turn = jnp.where(turn > 0, gait.LEFT, gait.RIGHT)
+        return jnp.where(jnp.abs(turn) < FIRST_TURN, by_vy, by_turn).astype(jnp.int32)
 
     def reset(self, params: Array, key: Array, obs: Obs, time: Array, cmd: Array) -> ControllerState:
         """Standing at `time`, about to take the first step under command `cmd`.
@@ -113,7 +124,7 @@ class Controller:
         The first step is planned for the followed command (`start_command`); the foot that lifts
         first is chosen for the given one, the way the robot is about to go.
         """
-        stance = self.first_stance(key, cmd)
+        stance = self.first_stance(key, cmd, obs.rpy[2])
         followed = self.start_command(obs, cmd)
         zeros2 = jnp.zeros(2)
         return ControllerState(

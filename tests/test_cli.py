@@ -487,7 +487,7 @@ def test_version_and_help_for_every_option_with_examples_per_command():
         for action in sub._actions:
             assert action.help, (name, action.dest)
     train_help = commands["train"].format_help()
-    assert "(default cassie 320, digit 60)" in " ".join(train_help.split())  # defaults from the configs
+    assert "(default cassie 320, digit 120)" in " ".join(train_help.split())  # defaults from the configs
 
 
 def test_a_shipped_scenario_is_named_from_any_directory(tmp_path, monkeypatch):

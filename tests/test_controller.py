@@ -251,4 +251,4 @@ def test_from_rest_the_followed_command_ramps_from_standing_at_the_rate(standing
     np.testing.assert_allclose(np.asarray(later.cmd), np.asarray(start.cmd) + np.sign(cmd) * step, atol=1e-6)
     at_rest = ctl.plan(params, obs.q, start.stance, start.cmd, jnp.zeros(2))
     np.testing.assert_array_equal(np.asarray(start.alpha), np.asarray(at_rest))
-    assert int(start.stance) == int(ctl.first_stance(jax.random.PRNGKey(0), cmd))  # the given command's foot
+    assert int(start.stance) == int(ctl.first_stance(jax.random.PRNGKey(0), cmd, obs.rpy[2]))  # the given command's foot

@@ -75,16 +75,40 @@ def test_the_first_step_lifts_the_foot_on_the_side_of_the_commanded_sideways_vel
     coin = Env(cassie, cassie_cfg.override(**{"gait.first_swing": "random"}), cassie_pool, cassie_network.apply)
     toward = Env(cassie, cassie_cfg.override(**{"gait.first_swing": "command"}), cassie_pool, cassie_network.apply)
     keys = jax.random.split(jax.random.PRNGKey(3), 16)
-    tossed = np.array([int(coin.controller.first_stance(k, jnp.zeros(3))) for k in keys])
+    level = jnp.zeros(())
+    tossed = np.array([int(coin.controller.first_stance(k, jnp.zeros(3), level)) for k in keys])
     assert set(tossed) == {gait.LEFT, gait.RIGHT}
     for k, side in zip(keys, tossed):
-        assert int(coin.controller.first_stance(k, jnp.array([0.3, 0.2, 0.0]))) == side
-        assert int(toward.controller.first_stance(k, jnp.array([0.0, 0.0, 0.4]))) == side
-        assert int(toward.controller.first_stance(k, jnp.array([0.3, 0.2, 0.0]))) == gait.RIGHT
-        assert int(toward.controller.first_stance(k, jnp.array([-0.2, -0.05, 0.3]))) == gait.LEFT
+        assert int(coin.controller.first_stance(k, jnp.array([0.3, 0.2, 0.0]), level)) == side
+        assert int(toward.controller.first_stance(k, jnp.array([0.0, 0.0, 0.4]), level)) == side
+        assert int(toward.controller.first_stance(k, jnp.array([0.3, 0.2, 0.0]), level)) == gait.RIGHT
+        assert int(toward.controller.first_stance(k, jnp.array([-0.2, -0.05, 0.3]), level)) == gait.LEFT
     # env.reset splits its key into the pool draw and the first stance's coin
     state = jax.jit(toward.reset)(cassie_network.init_params, keys[0], jnp.array([0.0, -0.1, 0.0]))
     assert int(state.ctrl.stance) == gait.LEFT
+
+
+def test_with_first_swing_turn_the_foot_on_the_turns_side_stands_through_the_first_step(cassie, cassie_cfg,
+                                                                                      cassie_pool, cassie_network):
+    """`gait.first_swing: turn`: a left turn (the commanded heading above the present one) stands on
+    the left foot whatever vy; the turn is taken from the present heading, across +-pi; below
+    `FIRST_TURN`, vy's side, and with neither, the coin."""
+    turn = Env(cassie, cassie_cfg.override(**{"gait.first_swing": "turn"}), cassie_pool, cassie_network.apply)
+    first = turn.controller.first_stance
+    keys = jax.random.split(jax.random.PRNGKey(3), 16)
+    for k in keys:
+        assert int(first(k, jnp.array([-0.2, -0.3, 0.3]), jnp.zeros(()))) == gait.LEFT
+        assert int(first(k, jnp.array([-0.2, 0.3, -0.3]), jnp.zeros(()))) == gait.RIGHT
+        assert int(first(k, jnp.array([0.0, 0.0, 0.3]), jnp.array(0.5))) == gait.RIGHT  # 0.2 rad to the right
+        assert int(first(k, jnp.array([0.0, 0.0, -3.0]), jnp.array(3.0))) == gait.LEFT  # 0.28 rad left across pi
+        assert int(first(k, jnp.array([0.3, 0.2, 0.4]), jnp.array(0.4))) == gait.RIGHT  # no turn: vy's side
+        assert int(first(k, jnp.array([0.0, -0.3, 0.0]), jnp.array(0.09))) == gait.LEFT  # under FIRST_TURN
+        assert int(first(k, jnp.array([0.0, -0.3, 0.0]), jnp.array(0.11))) == gait.RIGHT  # 0.11 rad right
+    tossed = {int(first(k, jnp.zeros(3), jnp.zeros(()))) for k in keys}
+    assert tossed == {gait.LEFT, gait.RIGHT}
+    # env.reset reads the present heading from the standing state it starts in
+    state = jax.jit(turn.reset)(cassie_network.init_params, keys[0], jnp.array([0.0, 0.3, -0.4]))
+    assert int(state.ctrl.stance) == gait.RIGHT
 
 
 PUSH_AT = 2.0  # s

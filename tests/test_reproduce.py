@@ -2,6 +2,7 @@
 test_cli.py's smoke run)."""
 
 import json
+import shutil
 
 from conftest import ROOT, benchmark_script
 
@@ -30,3 +31,23 @@ def test_reproduce_compares_checks_only_where_both_runs_checked(tmp_path):
                                                "shipped": rows[19]["val/passed"] + 1}
     unchecked[4]["fitness_mean"] += 1e-6
     assert write(unchecked)["first_difference"]["generation"] == 5
+
+
+def test_a_rerun_past_a_best_check_policy_is_compared_up_to_its_generation(tmp_path):
+    """A policy that was its run's best check, not its last generation, logs up to its own
+    generation: a rerun that trained on past it is compared up to there, with its `best/`'s
+    parameters where that is the generation, and a `best/` of another generation matches nothing."""
+    reproduce = benchmark_script("reproduce")
+    policy_dir = ROOT / "mjx_cascade" / "policies" / "digit"
+    record = json.loads((policy_dir / "record.json").read_text())
+    rows = [json.loads(line) for line in (policy_dir / "metrics.jsonl").read_text().splitlines()]
+    assert rows[-1]["generation"] == record["generation"] < record["config"]["train"]["generations"]
+    run = tmp_path / "run"
+    shutil.copytree(policy_dir, run / "best")
+    later = [rows[-1] | {"generation": record["generation"] + k, "fitness_mean": 0.0} for k in (1, 2)]
+    (run / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows + later))
+    same = reproduce.compare(run, policy_dir)
+    assert same["identical"] and same["generations_compared"] == record["generation"] and same["params"]["equal"]
+    (run / "best" / "record.json").write_text(json.dumps(record | {"generation": record["generation"] - 10}))
+    other = reproduce.compare(run, policy_dir)
+    assert not other["identical"] and other["params"] == {"run": None, "shipped": record["params_sha256"], "equal": False}
